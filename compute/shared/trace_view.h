@@ -1,0 +1,43 @@
+// trace_view.h: the per-layer descriptor of a shadow trace (DESIGN.md §6), readable as C++ and GLSL.
+//
+// The record lives with the trace kernels, not in lighting/, because compute/ consumes it and sits below
+// lighting/ in the module order; lighting/ fills it from its light views.
+#ifndef VOXSHADOW_TRACE_VIEW_H
+#define VOXSHADOW_TRACE_VIEW_H
+
+#include "voxel/portable.h"
+
+VS_NAMESPACE_BEGIN
+
+// How a layer's texels are encoded (DESIGN.md §2).
+const int VS_ENCODING_NDC_DEPTH = 0;        // directional: NDC depth 0..1 of the hit, 1 on a miss
+const int VS_ENCODING_LINEAR_DISTANCE = 1;  // spot, point: world distance from the light, range on a miss
+const int VS_DEPTH_POINT_ENTRY = 0;         // where the ray enters the hit voxel
+const int VS_DEPTH_POINT_VOXEL_CENTER = 1;  // the hit voxel's centre, projected like the entry point
+
+// Larger than any t a trace produces; marks "no hit" in box tests.
+const float VS_T_INFINITY = 3.0e38f;
+// BVH traversal stack depth; the builder keeps trees shallower than this (bvh/bvh.h).
+const int VS_BVH_STACK_SIZE = 64;
+
+struct TraceView {
+  mat4 viewProj;     // world -> clip
+  mat4 invViewProj;  // clip -> world
+  vec4 origin;       // xyz: light position (linear-distance views); w: range (their miss value)
+  ivec4 rect;        // texels to trace: x0, y0, x1, y1 (x1, y1 exclusive)
+  ivec4 info;        // x: width, y: height, z: encoding, w: depth point
+};
+
+VS_NAMESPACE_END
+
+#ifndef VS_GLSL
+namespace vs::gpu {
+VS_LAYOUT_CHECK(TraceView, 176);
+VS_OFFSET_CHECK(TraceView, invViewProj, 64);
+VS_OFFSET_CHECK(TraceView, origin, 128);
+VS_OFFSET_CHECK(TraceView, rect, 144);
+VS_OFFSET_CHECK(TraceView, info, 160);
+}  // namespace vs::gpu
+#endif
+
+#endif

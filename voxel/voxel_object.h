@@ -1,0 +1,47 @@
+// voxel_object.h: a voxel asset loaded from a file: its brickmap, palette and index-to-world map.
+#ifndef VOXSHADOW_VOXEL_OBJECT_H
+#define VOXSHADOW_VOXEL_OBJECT_H
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "voxel/brickmap.h"
+
+namespace vs {
+
+struct LoadOptions {
+  // Grid to use: a name (first grid of that name in file order) or a 0-based index in file order, written
+  // as decimal digits. Empty: the first grid in file order that has a solid rule (the choice is logged).
+  std::string grid;
+  float densityThreshold = 0.0f;       // fog and other scalar float grids: solid where value > this
+  glm::vec3 color{0.8f, 0.8f, 0.8f};  // default colour (palette entry 1) for grids without their own
+};
+
+struct VoxelObject {
+  std::string file;      // path as given
+  std::string gridName;  // the chosen grid's name
+  int gridIndex = -1;    // its index in file order
+  std::string gridType;  // OpenVDB value type name, e.g. "float", "vec3s", "bool", "int32"
+  std::string gridClass; // "level set", "fog volume", "unknown", ...
+  std::string rule;      // human-readable solid rule applied, e.g. "level set: value < 0 (interior filled)"
+  std::string selectionNote;  // why this grid was chosen when no grid was named; empty otherwise
+  // Palette: entry 0 is unused (empty), entries 1..255 are linear RGB colours.
+  std::vector<glm::vec3> palette;
+  // Maps brick space (index + 0.5) to the asset's world space: grid transform * translate(-0.5).
+  glm::dmat4 brickToObject{1.0};
+  Brickmap brickmap;
+};
+
+// Loads one grid of a .vdb file and builds its brickmap under the solid rules of DESIGN.md §3.
+// Preconditions: none on the file; every failure is a vs::Error naming the file (and grid):
+// missing/unreadable file, not a VDB, truncated, unknown grid name or index, grid without a solid rule,
+// non-linear (frustum) transform, bounds too large for the brickmap. An empty grid loads as an empty object.
+VoxelObject loadVdb(const std::string& path, const LoadOptions& options = {});
+
+}  // namespace vs
+
+#endif
