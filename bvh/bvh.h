@@ -29,13 +29,25 @@ class Bvh {
   static constexpr float kIntersectionCost = 1.0f;
   static constexpr int kBins = 16;
   static constexpr int kMaxLeafSize = 4;
+  // Deepest leaf (root at depth 0). The traversal keeps one pending sibling per level plus the two children
+  // it pushes on a stack of VS_BVH_STACK_SIZE (compute/shared/trace_view.h) entries: 64 - 2 levels fit
+  // (bvh_test checks the two constants agree; bvh/ sits below compute/ and does not include it).
+  static constexpr int kMaxDepth = 62;
+  // shouldRebuild() threshold: refit SAH cost over the cost at build time.
+  static constexpr float kRebuildCostRatio = 1.5f;
 
   // Builds over the boxes (one per instance, index = instance index). Empty boxes are skipped (never hit).
   // Preconditions: boxes finite. Zero boxes gives a BVH with no nodes.
   static Bvh build(std::span<const Aabb> boxes);
 
-  // Recomputes node bounds bottom-up for moved instances, keeping the topology. Precondition: same count.
+  // Recomputes node bounds bottom-up for moved instances, keeping the topology. Precondition: the same
+  // number of boxes as at build (throws vs::Error(BadInput) otherwise). A box that was empty at build is not
+  // in the tree: if it becomes non-empty, shouldRebuild() turns true.
   void refit(std::span<const Aabb> boxes);
+
+  // True when the refitted tree has degraded enough (sahCost() > builtSahCost() * kRebuildCostRatio), or an
+  // instance that was empty at build now has a box, that build() should be called again.
+  bool shouldRebuild() const;
 
   // SAH cost of the current tree (relative units); compare with the cost at build time to decide a rebuild.
   float sahCost() const;
@@ -49,6 +61,9 @@ class Bvh {
   std::vector<gpu::BvhNode> nodes_;
   std::vector<std::uint32_t> indices_;
   float builtSahCost_ = 0.0f;
+  std::size_t boxCount_ = 0;
+  std::vector<std::uint8_t> inTree_;  // per box: non-empty at build
+  bool missingInstance_ = false;
 };
 
 }  // namespace vs

@@ -2,6 +2,7 @@
 #ifndef VOXSHADOW_BRICKMAP_H
 #define VOXSHADOW_BRICKMAP_H
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <span>
@@ -34,6 +35,9 @@ struct EditResult {
   std::vector<DirtyRange> dirty;
   VoxelBox dirtyVoxels;
   bool layoutChanged = false;  // an array grew or the region table was rebuilt: re-upload that array whole
+  // Every array was rewritten from scratch (compaction): the dirty ranges cover whole arrays and no byte
+  // keeps its old meaning. Only compact() sets it.
+  bool rebuilt = false;
 };
 
 struct BrickmapMemory {
@@ -66,7 +70,7 @@ class Brickmap {
   bool isSolid(glm::ivec3 v) const;
   std::uint8_t material(glm::ivec3 v) const;
   std::uint64_t solidCount() const { return solidCount_; }
-  VoxelBox bounds() const { return bounds_; }  // tight box of solid voxels; empty() when none
+  VoxelBox bounds() const;  // tight box of solid voxels; empty() when none (recomputed lazily after clears)
   BrickmapMemory memory() const;
   // Calls fn for every solid voxel (brick-space coordinate, material), in no particular order.
   void forEachSolid(const std::function<void(glm::ivec3, std::uint8_t)>& fn) const;
@@ -76,6 +80,10 @@ class Brickmap {
   EditResult clearVoxel(glm::ivec3 v);
   EditResult fillBox(const VoxelBox& box, std::uint8_t material);
   EditResult clearBox(const VoxelBox& box);
+
+  // Edits leave freed blocks (bricks, sectors, occupancy lines, payload blocks) on free lists for reuse.
+  // compact() rebuilds the arrays densely; every index may change (result.rebuilt and layoutChanged are set).
+  EditResult compact();
 
   // Throws std::logic_error describing the first inconsistency between levels (masks vs children,
   // cell masks vs occupancy lines, counts, bounds). Used by tests after edits.
@@ -92,6 +100,17 @@ class Brickmap {
   std::span<const std::uint32_t> payloadWords() const { return payload_; }
 
  private:
+  struct BrickContent;
+  struct EditContext;
+  using VoxelOp = std::function<void(BrickContent&, glm::ivec3 brickOrigin)>;
+  // Applies `op` to every brick overlapping `box` (brick space) and commits the changes level by level.
+  EditResult editBricks(const VoxelBox& box, bool adds, const VoxelOp& op);
+  void growRegionTable(glm::ivec3 regionMin, glm::ivec3 regionMax, EditContext& ctx);
+  std::int64_t slotOf(glm::ivec3 regionCoord) const;  // -1 when outside the table
+  const gpu::Brick* findBrick(glm::ivec3 v) const;
+  void decodeBrick(const gpu::Brick& brick, BrickContent& out) const;
+  void recomputeBounds() const;
+
   glm::ivec3 regionOrigin_{0};
   glm::ivec3 regionDims_{0};
   std::vector<std::uint32_t> regionTable_;
@@ -100,8 +119,16 @@ class Brickmap {
   std::vector<gpu::Brick> bricks_;
   std::vector<std::uint32_t> occupancy_;
   std::vector<std::uint32_t> payload_;
-  VoxelBox bounds_;
+  mutable VoxelBox bounds_;
+  mutable bool boundsStale_ = false;
   std::uint64_t solidCount_ = 0;
+  // Free blocks left by edits: brick and sector blocks by length (1..64), occupancy lines, payload blocks,
+  // region records.
+  std::array<std::vector<std::uint32_t>, 65> freeBrickBlocks_;
+  std::array<std::vector<std::uint32_t>, 65> freeSectorBlocks_;
+  std::vector<std::uint32_t> freeOccupancyLines_;
+  std::vector<std::uint32_t> freePayloadBlocks_;
+  std::vector<std::uint32_t> freeRegions_;
 };
 
 }  // namespace vs

@@ -17,15 +17,15 @@ struct ShadowLayer {
 };
 
 enum class CpuTracePath {
-  Reference,  // the portable per-ray traversal, exactly what the shader runs
-  Tiles,      // coherent 16x4 tiles sharing the upper walk; matches Reference texel for texel
+  Reference,    // the portable per-ray traversal, exactly what the shader runs
+  Interleaved,  // tiles of rays walked in lockstep (compute/cpu/tile_tracer.h); equal texel for texel
 };
 
 // Traces every view's texel rectangle into layers[i] (resized to the view's size when it differs; texels
 // outside the rectangle keep their values). Preconditions: views[i].info.xy > 0, rect inside the view.
 // threads <= 0 uses every hardware thread.
 void traceCpu(const SceneData& scene, std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers,
-              CpuTracePath path = CpuTracePath::Tiles, int threads = 0);
+              CpuTracePath path = CpuTracePath::Interleaved, int threads = 0);
 
 // Traces a single ray through the scene with the reference traversal (for tests and tools).
 bool traceRayCpu(const SceneData& scene, glm::vec3 origin, glm::vec3 direction, float tMin, float tMax,

@@ -20,6 +20,14 @@ const float VS_T_INFINITY = 3.0e38f;
 // BVH traversal stack depth; the builder keeps trees shallower than this (bvh/bvh.h).
 const int VS_BVH_STACK_SIZE = 64;
 
+// What one step of an object walk found (compute/shared/traverse.h).
+const int VS_WALK_CONTINUE = 0;
+const int VS_WALK_HIT = 1;
+const int VS_WALK_MISS = 2;
+
+// No voxel coordinate shifted right by a level's log2 reaches this: marks an object walk's cache as empty.
+const int VS_NO_CELL = 0x7fffffff;
+
 struct TraceView {
   mat4 viewProj;     // world -> clip
   mat4 invViewProj;  // clip -> world

@@ -10,6 +10,24 @@
 // Robust stepping: cells are integer coordinates; the exit axis of a cell is the smallest exact t at which the
 // ray crosses one of its faces; the coordinates of the other axes come from the exit point but are clamped
 // to the cell and never move against the ray, so no voxel is skipped by an epsilon and every loop ends.
+//
+// The per-object arrays can outgrow one storage-buffer binding (maxStorageBufferRange); an includer that
+// splits them defines these readers before including this body. By default they index the named array.
+#ifndef VS_READ_REGION_TABLE
+#define VS_READ_REGION_TABLE(i) regionTable[i]
+#endif
+#ifndef VS_READ_REGIONS
+#define VS_READ_REGIONS(i) regions[i]
+#endif
+#ifndef VS_READ_SECTORS
+#define VS_READ_SECTORS(i) sectors[i]
+#endif
+#ifndef VS_READ_BRICKS
+#define VS_READ_BRICKS(i) bricks[i]
+#endif
+#ifndef VS_READ_OCCUPANCY
+#define VS_READ_OCCUPANCY(i) occupancy[i]
+#endif
 
 // Rank of `bit` inside a 64-bit mask: how many set bits lie below it.
 uint vsRankBelow(uvec2 mask, uint bit) {
@@ -27,35 +45,74 @@ uint vsChildBit(ivec3 v, int log2Child) {
   return uint(c.x + 4 * c.y + 16 * c.z);
 }
 
-// log2 of the largest empty aligned cell that holds voxel v (7, 5, 3, 1 or 0), or -1 when v is solid.
-// Precondition: v lies inside the object's voxel bounds.
-int vsEmptyCellLog2(ObjectRecord obj, ivec3 v) {
-  ivec3 r = (v >> VS_REGION_LOG2) - ivec3(obj.regionOrigin);
-  uint slotIndex = obj.bases.x + uint(r.x + obj.regionDims.x * (r.y + obj.regionDims.y * r.z));
-  uint slot = regionTable[slotIndex];
-  if (slot == VS_EMPTY_SLOT) return VS_REGION_LOG2;
-  Region region = regions[obj.bases.y + slot];
-  uint sectorBit = vsChildBit(v, VS_SECTOR_LOG2);
-  if (!vsTestBit(region.sectorMask, sectorBit)) return VS_SECTOR_LOG2;
-  Sector sector = sectors[obj.bases.z + region.firstSector + vsRankBelow(region.sectorMask, sectorBit)];
-  uint brickBit = vsChildBit(v, VS_BRICK_LOG2);
-  if (!vsTestBit(sector.brickMask, brickBit)) return VS_BRICK_LOG2;
-  Brick brick = bricks[obj.bases.w + sector.firstBrick + vsRankBelow(sector.brickMask, brickBit)];
-  if (brick.occupancy == VS_FULL_BRICK) return -1;
-  uint cellBit = vsChildBit(v, VS_CELL_LOG2);
-  if (!vsTestBit(brick.cellMask, cellBit)) return VS_CELL_LOG2;
-  uint voxelBit = cellBit * 8u + uint((v.x & 1) + 2 * (v.y & 1) + 4 * (v.z & 1));
-  uint word = occupancy[obj.bases2.x + brick.occupancy * VS_OCCUPANCY_WORDS + (voxelBit >> 5u)];
+// One ray's walk through one object's brickmap, advanced one cell at a time by vsObjectWalkStep, so that a
+// caller may interleave the walks of many rays (compute/cpu/tile_tracer.cpp) without changing any result.
+struct ObjectWalk {
+  ObjectRecord obj;
+  vec3 o;        // ray origin in the object's brick space
+  vec3 d;        // ray direction in brick space (t is the caller's parameter, kept through the affine map)
+  vec3 invD;     // 1 / d per axis, 0 where d is 0
+  ivec3 v;       // current voxel
+  float tEnter;  // t at which the ray enters v's cell (the hit's depth)
+  float t1;      // end of the ray's span inside the object
+  int stepsLeft; // hard bound: every step moves at least one voxel along its exit axis, never back
+  // The last sector and brick looked up. A ray crosses many cells of one sector and of one brick in a row;
+  // keeping their records saves the chain of dependent loads from the region table down.
+  ivec3 sectorCoord;   // v >> VS_SECTOR_LOG2 of the cached sector
+  int sectorLog2;      // VS_REGION_LOG2 or VS_SECTOR_LOG2 when that region or sector is empty, else 0
+  uvec2 brickMask;     // the cached sector's brick mask (sectorLog2 == 0)
+  uint firstBrick;     // global index of its first brick
+  ivec3 brickCoord;    // v >> VS_BRICK_LOG2 of the cached brick
+  Brick brick;
+};
+
+// log2 of the largest empty aligned cell around the walk's voxel (7, 5, 3, 1 or 0), or -1 when it is solid.
+// Precondition: w.v lies inside the object's voxel bounds.
+int vsWalkCellLog2(VS_INOUT(ObjectWalk) w) {
+  ivec3 sectorCoord = w.v >> VS_SECTOR_LOG2;
+  if (sectorCoord != w.sectorCoord) {
+    w.sectorCoord = sectorCoord;
+    w.brickCoord = ivec3(VS_NO_CELL);
+    ivec3 r = (w.v >> VS_REGION_LOG2) - ivec3(w.obj.regionOrigin);
+    uint slotIndex = w.obj.bases.x + uint(r.x + w.obj.regionDims.x * (r.y + w.obj.regionDims.y * r.z));
+    uint slot = VS_READ_REGION_TABLE(slotIndex);
+    if (slot == VS_EMPTY_SLOT) {
+      w.sectorLog2 = VS_REGION_LOG2;
+    } else {
+      Region region = VS_READ_REGIONS(w.obj.bases.y + slot);
+      uint sectorBit = vsChildBit(w.v, VS_SECTOR_LOG2);
+      if (!vsTestBit(region.sectorMask, sectorBit)) {
+        w.sectorLog2 = VS_SECTOR_LOG2;
+      } else {
+        Sector sector = VS_READ_SECTORS(w.obj.bases.z + region.firstSector + vsRankBelow(region.sectorMask, sectorBit));
+        w.sectorLog2 = 0;
+        w.brickMask = sector.brickMask;
+        w.firstBrick = w.obj.bases.w + sector.firstBrick;
+      }
+    }
+  }
+  if (w.sectorLog2 != 0) return w.sectorLog2;
+  uint brickBit = vsChildBit(w.v, VS_BRICK_LOG2);
+  if (!vsTestBit(w.brickMask, brickBit)) return VS_BRICK_LOG2;
+  ivec3 brickCoord = w.v >> VS_BRICK_LOG2;
+  if (brickCoord != w.brickCoord) {
+    w.brickCoord = brickCoord;
+    w.brick = VS_READ_BRICKS(w.firstBrick + vsRankBelow(w.brickMask, brickBit));
+  }
+  if (w.brick.occupancy == VS_FULL_BRICK) return -1;
+  uint cellBit = vsChildBit(w.v, VS_CELL_LOG2);
+  if (!vsTestBit(w.brick.cellMask, cellBit)) return VS_CELL_LOG2;
+  uint voxelBit = cellBit * 8u + uint((w.v.x & 1) + 2 * (w.v.y & 1) + 4 * (w.v.z & 1));
+  uint word = VS_READ_OCCUPANCY(w.obj.bases2.x + w.brick.occupancy * VS_OCCUPANCY_WORDS + (voxelBit >> 5u));
   return ((word >> (voxelBit & 31u)) & 1u) != 0u ? -1 : 0;
 }
 
-// Closest solid voxel of one object along o + t*d (brick space; t is the caller's parameter, kept through
-// the affine map), for t in [tMin, tMax]. On a hit returns true with tHit the entry t and voxel its coordinate.
-bool vsTraceObject(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax, VS_INOUT(float) tHit,
-                   VS_INOUT(ivec3) voxel) {
-  ObjectRecord obj = objects[objectIndex];
-  ivec3 vmin = ivec3(obj.voxelMin);
-  ivec3 vmax = ivec3(obj.voxelMax);
+// Clips o + t*d, t in [tMin, tMax], to the object's voxel bounds and places the walk on its first voxel.
+// Returns false when the ray misses the bounds (or the object is empty).
+bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax, VS_INOUT(ObjectWalk) w) {
+  w.obj = objects[objectIndex];
+  ivec3 vmin = ivec3(w.obj.voxelMin);
+  ivec3 vmax = ivec3(w.obj.voxelMax);
   if (vmax.x <= vmin.x || vmax.y <= vmin.y || vmax.z <= vmin.z) return false;
 
   VS_PRECISE vec3 invD = vec3(0.0f);
@@ -75,52 +132,78 @@ bool vsTraceObject(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax, VS_
   if (t0 > t1) return false;
 
   VS_PRECISE vec3 entry = o + d * t0;
-  ivec3 v = ivec3(clamp(floor(entry), vec3(vmin), vec3(vmax - ivec3(1))));
-  VS_PRECISE float tEnter = t0;
-  // Every step moves at least one voxel along its exit axis and never back on any axis.
-  int maxSteps = (vmax.x - vmin.x) + (vmax.y - vmin.y) + (vmax.z - vmin.z) + 3;
-  for (int step = 0; step < maxSteps; ++step) {
-    int log2Size = vsEmptyCellLog2(obj, v);
-    if (log2Size < 0) {
-      tHit = tEnter;
-      voxel = v;
-      return true;
-    }
-    int size = 1 << log2Size;
-    ivec3 cellMin = v & ivec3(~(size - 1));
+  w.o = o;
+  w.d = d;
+  w.invD = invD;
+  w.v = ivec3(clamp(floor(entry), vec3(vmin), vec3(vmax - ivec3(1))));
+  w.tEnter = t0;
+  w.t1 = t1;
+  w.stepsLeft = (vmax.x - vmin.x) + (vmax.y - vmin.y) + (vmax.z - vmin.z) + 3;
+  w.sectorCoord = ivec3(VS_NO_CELL);
+  w.sectorLog2 = 0;
+  w.brickMask = uvec2(0u);
+  w.firstBrick = 0u;
+  w.brickCoord = ivec3(VS_NO_CELL);
+  w.brick = Brick(uvec2(0u), 0u, 0u);
+  return true;
+}
 
-    VS_PRECISE float tExit = VS_T_INFINITY;
-    int exitAxis = -1;
-    for (int a = 0; a < 3; ++a) {
-      if (d[a] != 0.0f) {
-        int bound = d[a] > 0.0f ? cellMin[a] + size : cellMin[a];
-        VS_PRECISE float ta = (float(bound) - o[a]) * invD[a];
-        if (ta < tExit) {
-          tExit = ta;
-          exitAxis = a;
-        }
+// Looks at the walk's current voxel: VS_WALK_HIT when it is solid (w.v, w.tEnter hold the hit), else moves
+// past the largest empty cell around it and returns VS_WALK_CONTINUE, or VS_WALK_MISS once the ray has left
+// the object or its span.
+int vsObjectWalkStep(VS_INOUT(ObjectWalk) w) {
+  if (w.stepsLeft <= 0) return VS_WALK_MISS;
+  w.stepsLeft -= 1;
+  int log2Size = vsWalkCellLog2(w);
+  if (log2Size < 0) return VS_WALK_HIT;
+  int size = 1 << log2Size;
+  ivec3 cellMin = w.v & ivec3(~(size - 1));
+
+  VS_PRECISE float tExit = VS_T_INFINITY;
+  int exitAxis = -1;
+  for (int a = 0; a < 3; ++a) {
+    if (w.d[a] != 0.0f) {
+      int bound = w.d[a] > 0.0f ? cellMin[a] + size : cellMin[a];
+      VS_PRECISE float ta = (float(bound) - w.o[a]) * w.invD[a];
+      if (ta < tExit) {
+        tExit = ta;
+        exitAxis = a;
       }
     }
-    if (exitAxis < 0 || tExit >= t1) return false;
-    tExit = max(tExit, tEnter);
-
-    VS_PRECISE vec3 p = o + d * tExit;
-    ivec3 next = v;
-    for (int a = 0; a < 3; ++a) {
-      if (a == exitAxis) {
-        next[a] = d[a] > 0.0f ? cellMin[a] + size : cellMin[a] - 1;
-      } else if (d[a] != 0.0f) {
-        float lo = float(cellMin[a]);
-        float hi = float(cellMin[a] + size - 1);
-        int c = int(clamp(floor(p[a]), lo, hi));
-        next[a] = d[a] > 0.0f ? max(c, v[a]) : min(c, v[a]);
-      }
-    }
-    if (next[exitAxis] < vmin[exitAxis] || next[exitAxis] >= vmax[exitAxis]) return false;
-    v = next;
-    tEnter = tExit;
   }
-  return false;
+  if (exitAxis < 0 || tExit >= w.t1) return VS_WALK_MISS;
+  tExit = max(tExit, w.tEnter);
+
+  VS_PRECISE vec3 p = w.o + w.d * tExit;
+  ivec3 next = w.v;
+  for (int a = 0; a < 3; ++a) {
+    if (a == exitAxis) {
+      next[a] = w.d[a] > 0.0f ? cellMin[a] + size : cellMin[a] - 1;
+    } else if (w.d[a] != 0.0f) {
+      float lo = float(cellMin[a]);
+      float hi = float(cellMin[a] + size - 1);
+      int c = int(clamp(floor(p[a]), lo, hi));
+      next[a] = w.d[a] > 0.0f ? max(c, w.v[a]) : min(c, w.v[a]);
+    }
+  }
+  if (next[exitAxis] < w.obj.voxelMin[exitAxis] || next[exitAxis] >= w.obj.voxelMax[exitAxis]) return VS_WALK_MISS;
+  w.v = next;
+  w.tEnter = tExit;
+  return VS_WALK_CONTINUE;
+}
+
+// Closest solid voxel of one object along o + t*d (brick space; t is the caller's parameter, kept through
+// the affine map), for t in [tMin, tMax]. On a hit returns true with tHit the entry t and voxel its coordinate.
+bool vsTraceObject(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax, VS_INOUT(float) tHit,
+                   VS_INOUT(ivec3) voxel) {
+  ObjectWalk w;
+  if (!vsObjectWalkBegin(objectIndex, o, d, tMin, tMax, w)) return false;
+  int status = VS_WALK_CONTINUE;
+  while (status == VS_WALK_CONTINUE) status = vsObjectWalkStep(w);
+  if (status != VS_WALK_HIT) return false;
+  tHit = w.tEnter;
+  voxel = w.v;
+  return true;
 }
 
 vec3 vsApplyAffine(Affine m, vec3 p) {
@@ -228,17 +311,11 @@ void vsViewRay(TraceView view, ivec2 texel, VS_OUT(vec3) o, VS_OUT(vec3) d, VS_O
   }
 }
 
-// The texel value of one ray (DESIGN.md §2): the hit's t (entry point) or that of the hit voxel's centre,
-// and the miss value (t range end) when nothing is hit.
-float vsShadowTexel(TraceView view, ivec2 texel) {
-  vec3 o = vec3(0.0f);
-  vec3 d = vec3(0.0f);
-  float tMax = 0.0f;
-  vsViewRay(view, texel, o, d, tMax);
-  float tHit = tMax;
-  uint instanceHit = 0u;
-  ivec3 voxel = ivec3(0);
-  if (!vsTraceClosest(o, d, 0.0f, tMax, tHit, instanceHit, voxel)) return tMax;
+// The texel value of a traced ray (DESIGN.md §2): the hit's t (entry point) or that of the hit voxel's
+// centre, and the miss value (the t range end) when nothing was hit.
+float vsTexelValue(TraceView view, vec3 o, vec3 d, float tMax, bool hit, float tHit, uint instanceHit,
+                   ivec3 voxel) {
+  if (!hit) return tMax;
   if (view.info.w == VS_DEPTH_POINT_VOXEL_CENTER) {
     vec3 c = vsApplyAffine(instances[instanceHit].brickToWorld, vec3(voxel) + vec3(0.5f));
     VS_PRECISE vec3 rel = c - o;
@@ -251,4 +328,17 @@ float vsShadowTexel(TraceView view, ivec2 texel) {
     return min(dist, tMax);
   }
   return tHit;
+}
+
+// The texel value of one view texel.
+float vsShadowTexel(TraceView view, ivec2 texel) {
+  vec3 o = vec3(0.0f);
+  vec3 d = vec3(0.0f);
+  float tMax = 0.0f;
+  vsViewRay(view, texel, o, d, tMax);
+  float tHit = tMax;
+  uint instanceHit = 0u;
+  ivec3 voxel = ivec3(0);
+  bool hit = vsTraceClosest(o, d, 0.0f, tMax, tHit, instanceHit, voxel);
+  return vsTexelValue(view, o, d, tMax, hit, tHit, instanceHit, voxel);
 }

@@ -1,0 +1,476 @@
+// vulkan_context.cpp: instance and device setup, device choice, validation capture, memory and submission.
+#include "compute/vulkan/vulkan_context.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdlib>
+#include <cstring>
+#include <sstream>
+
+#include "voxel/error.h"
+
+namespace vs {
+namespace {
+
+const char* kValidationLayer = "VK_LAYER_KHRONOS_validation";
+const char* kNoDevice = "no Vulkan device found (install mesa-vulkan-drivers for lavapipe)";
+// Uploads larger than this go through the staging buffer in several submissions, bounding host memory.
+constexpr VkDeviceSize kStagingBytes = VkDeviceSize(32) << 20;
+
+bool envValidation() {
+  const char* v = std::getenv("VOXSHADOW_VALIDATION");
+  return v && std::string(v) == "1";
+}
+
+bool hasLayer(const char* name) {
+  std::uint32_t count = 0;
+  vkEnumerateInstanceLayerProperties(&count, nullptr);
+  std::vector<VkLayerProperties> layers(count);
+  vkEnumerateInstanceLayerProperties(&count, layers.data());
+  for (const auto& l : layers)
+    if (std::strcmp(l.layerName, name) == 0) return true;
+  return false;
+}
+
+bool hasInstanceExtension(const char* layer, const char* name) {
+  std::uint32_t count = 0;
+  vkEnumerateInstanceExtensionProperties(layer, &count, nullptr);
+  std::vector<VkExtensionProperties> exts(count);
+  vkEnumerateInstanceExtensionProperties(layer, &count, exts.data());
+  for (const auto& e : exts)
+    if (std::strcmp(e.extensionName, name) == 0) return true;
+  return false;
+}
+
+VkApplicationInfo appInfo() {
+  auto app = vk::make<VkApplicationInfo>(VK_STRUCTURE_TYPE_APPLICATION_INFO);
+  app.pApplicationName = "voxshadow";
+  app.applicationVersion = VK_MAKE_VERSION(0, 1, 0);
+  app.pEngineName = "voxshadow";
+  app.engineVersion = VK_MAKE_VERSION(0, 1, 0);
+  app.apiVersion = VK_API_VERSION_1_1;
+  return app;
+}
+
+VulkanDeviceType toType(VkPhysicalDeviceType t) {
+  switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return VulkanDeviceType::Discrete;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return VulkanDeviceType::Integrated;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return VulkanDeviceType::Virtual;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return VulkanDeviceType::Cpu;
+    default: return VulkanDeviceType::Other;
+  }
+}
+
+int typeRank(VulkanDeviceType t) {
+  switch (t) {
+    case VulkanDeviceType::Discrete: return 0;
+    case VulkanDeviceType::Integrated: return 1;
+    case VulkanDeviceType::Virtual: return 2;
+    case VulkanDeviceType::Cpu: return 3;
+    default: return 4;
+  }
+}
+
+VulkanDeviceInfo describe(VkPhysicalDevice pd, std::uint32_t index) {
+  VulkanDeviceInfo info;
+  info.index = index;
+  VkPhysicalDeviceProperties base{};
+  vkGetPhysicalDeviceProperties(pd, &base);
+
+  auto props = vk::make<VkPhysicalDeviceProperties2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2);
+  auto m3 = vk::make<VkPhysicalDeviceMaintenance3Properties>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES);
+  auto driver = vk::make<VkPhysicalDeviceDriverProperties>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES);
+  props.pNext = &m3;
+  // Driver properties are core only from Vulkan 1.2; chaining them on older devices is invalid.
+  if (base.apiVersion >= VK_API_VERSION_1_2) m3.pNext = &driver;
+  vkGetPhysicalDeviceProperties2(pd, &props);
+  const VkPhysicalDeviceProperties& p = props.properties;
+
+  info.name = p.deviceName;
+  info.type = toType(p.deviceType);
+  if (base.apiVersion >= VK_API_VERSION_1_2) {
+    info.driverName = driver.driverName;
+    info.driverInfo = driver.driverInfo;
+  }
+  info.apiVersion = p.apiVersion;
+  info.driverVersion = p.driverVersion;
+  std::copy(std::begin(p.pipelineCacheUUID), std::end(p.pipelineCacheUUID), info.pipelineCacheUuid.begin());
+  info.maxStorageBufferRange = p.limits.maxStorageBufferRange;
+  info.maxMemoryAllocationSize = m3.maxMemoryAllocationSize;
+  info.maxPerStageStorageBuffers = p.limits.maxPerStageDescriptorStorageBuffers;
+  info.maxImageDimension2D = p.limits.maxImageDimension2D;
+  info.maxImageArrayLayers = p.limits.maxImageArrayLayers;
+  for (int i = 0; i < 3; ++i) info.maxWorkGroupCount[i] = p.limits.maxComputeWorkGroupCount[i];
+  info.timestampPeriodNs = p.limits.timestampPeriod;
+
+  VkPhysicalDeviceMemoryProperties mem{};
+  vkGetPhysicalDeviceMemoryProperties(pd, &mem);
+  for (std::uint32_t h = 0; h < mem.memoryHeapCount; ++h)
+    if (mem.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
+      info.deviceLocalBytes = std::max<std::uint64_t>(info.deviceLocalBytes, mem.memoryHeaps[h].size);
+
+  std::uint32_t familyCount = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(pd, &familyCount, nullptr);
+  std::vector<VkQueueFamilyProperties> families(familyCount);
+  vkGetPhysicalDeviceQueueFamilyProperties(pd, &familyCount, families.data());
+  // Prefer a compute family without graphics (an async-compute queue), else any compute family.
+  for (int pass = 0; pass < 2 && !info.hasComputeQueue; ++pass) {
+    for (std::uint32_t f = 0; f < familyCount; ++f) {
+      bool compute = families[f].queueFlags & VK_QUEUE_COMPUTE_BIT;
+      bool graphics = families[f].queueFlags & VK_QUEUE_GRAPHICS_BIT;
+      if (compute && (pass == 1 || !graphics)) {
+        info.hasComputeQueue = true;
+        info.computeQueueFamily = f;
+        info.timestampValidBits = families[f].timestampValidBits;
+        break;
+      }
+    }
+  }
+  return info;
+}
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string deviceList(const std::vector<VulkanDeviceInfo>& devices) {
+  std::ostringstream out;
+  for (const auto& d : devices) out << "\n  " << d.index << ": " << d.name << " (" << toString(d.type) << ")";
+  return out.str();
+}
+
+}  // namespace
+
+const char* toString(VulkanDeviceType type) {
+  switch (type) {
+    case VulkanDeviceType::Discrete: return "discrete GPU";
+    case VulkanDeviceType::Integrated: return "integrated GPU";
+    case VulkanDeviceType::Virtual: return "virtual GPU";
+    case VulkanDeviceType::Cpu: return "CPU";
+    default: return "other";
+  }
+}
+
+std::vector<VulkanDeviceInfo> listVulkanDevices() {
+  VkApplicationInfo app = appInfo();
+  auto ci = vk::make<VkInstanceCreateInfo>(VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO);
+  ci.pApplicationInfo = &app;
+  VkInstance raw = VK_NULL_HANDLE;
+  VkResult r = vkCreateInstance(&ci, nullptr, &raw);
+  // The loader reports a missing driver as an incompatible one: that is "no device", not a failure.
+  if (r == VK_ERROR_INCOMPATIBLE_DRIVER) return {};
+  vk::check(r, "vkCreateInstance");
+  vk::UniqueInstance instance(raw);
+  std::uint32_t count = 0;
+  vk::check(vkEnumeratePhysicalDevices(instance.get(), &count, nullptr), "vkEnumeratePhysicalDevices");
+  std::vector<VkPhysicalDevice> pds(count);
+  vk::check(vkEnumeratePhysicalDevices(instance.get(), &count, pds.data()), "vkEnumeratePhysicalDevices");
+  std::vector<VulkanDeviceInfo> out;
+  for (std::uint32_t i = 0; i < count; ++i) out.push_back(describe(pds[i], i));
+  return out;
+}
+
+std::size_t chooseVulkanDevice(const std::vector<VulkanDeviceInfo>& devices, int deviceIndex,
+                               const std::string& deviceName) {
+  if (devices.empty()) throwRuntime(kNoDevice);
+  if (deviceIndex >= 0) {
+    if (static_cast<std::size_t>(deviceIndex) >= devices.size())
+      throwBadInput("Vulkan device index " + std::to_string(deviceIndex) + " out of range; devices:" +
+                    deviceList(devices));
+    if (!devices[deviceIndex].hasComputeQueue)
+      throwBadInput("Vulkan device " + devices[deviceIndex].name + " has no compute queue");
+    return static_cast<std::size_t>(deviceIndex);
+  }
+  if (!deviceName.empty()) {
+    std::string want = lower(deviceName);
+    for (std::size_t i = 0; i < devices.size(); ++i)
+      if (devices[i].hasComputeQueue && lower(devices[i].name).find(want) != std::string::npos) return i;
+    throwBadInput("no Vulkan device matches '" + deviceName + "'; devices:" + deviceList(devices));
+  }
+  std::size_t best = devices.size();
+  for (std::size_t i = 0; i < devices.size(); ++i) {
+    if (!devices[i].hasComputeQueue) continue;
+    if (best == devices.size() || typeRank(devices[i].type) < typeRank(devices[best].type)) best = i;
+  }
+  if (best == devices.size()) throwRuntime(std::string(kNoDevice) + ": no device has a compute queue");
+  return best;
+}
+
+VKAPI_ATTR VkBool32 VKAPI_CALL VulkanContext::onMessage(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                                        VkDebugUtilsMessageTypeFlagsEXT /*types*/,
+                                                        const VkDebugUtilsMessengerCallbackDataEXT* data,
+                                                        void* user) {
+  auto* self = static_cast<VulkanContext*>(user);
+  std::string text = (severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT) ? "error: " : "warning: ";
+  if (data && data->pMessageIdName) text += std::string("[") + data->pMessageIdName + "] ";
+  if (data && data->pMessage) text += data->pMessage;
+  std::lock_guard lock(self->messagesMutex_);
+  self->messages_.push_back(std::move(text));
+  return VK_FALSE;
+}
+
+VulkanContext::VulkanContext(const VulkanContextOptions& options) {
+  validation_ = options.validation.value_or(envValidation());
+  std::vector<const char*> layers;
+  std::vector<const char*> extensions;
+  if (validation_) {
+    if (!hasLayer(kValidationLayer))
+      throwRuntime(std::string("Vulkan validation was requested (VOXSHADOW_VALIDATION=1 or the validation option) "
+                               "but the layer ") + kValidationLayer +
+                   " is not installed (Debian: vulkan-validationlayers)");
+    if (!hasInstanceExtension(nullptr, VK_EXT_DEBUG_UTILS_EXTENSION_NAME) &&
+        !hasInstanceExtension(kValidationLayer, VK_EXT_DEBUG_UTILS_EXTENSION_NAME))
+      throwRuntime("Vulkan validation was requested but VK_EXT_debug_utils is not available");
+    layers.push_back(kValidationLayer);
+    extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  }
+
+  auto messengerInfo = vk::make<VkDebugUtilsMessengerCreateInfoEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT);
+  messengerInfo.messageSeverity =
+      VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+  messengerInfo.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
+                              VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                              VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+  messengerInfo.pfnUserCallback = &VulkanContext::onMessage;
+  messengerInfo.pUserData = this;
+
+  VkApplicationInfo app = appInfo();
+  auto ci = vk::make<VkInstanceCreateInfo>(VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO);
+  ci.pApplicationInfo = &app;
+  ci.enabledLayerCount = static_cast<std::uint32_t>(layers.size());
+  ci.ppEnabledLayerNames = layers.data();
+  ci.enabledExtensionCount = static_cast<std::uint32_t>(extensions.size());
+  ci.ppEnabledExtensionNames = extensions.data();
+  // Chained so that messages from instance creation and destruction are captured too.
+  if (validation_) ci.pNext = &messengerInfo;
+  VkInstance rawInstance = VK_NULL_HANDLE;
+  VkResult r = vkCreateInstance(&ci, nullptr, &rawInstance);
+  if (r == VK_ERROR_INCOMPATIBLE_DRIVER) throwRuntime(kNoDevice);
+  vk::check(r, "vkCreateInstance");
+  instance_ = vk::UniqueInstance(rawInstance);
+
+  if (validation_) {
+    auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
+        vkGetInstanceProcAddr(instance_.get(), "vkCreateDebugUtilsMessengerEXT"));
+    if (!create) throwRuntime("Vulkan validation was requested but vkCreateDebugUtilsMessengerEXT is missing");
+    VkDebugUtilsMessengerEXT m = VK_NULL_HANDLE;
+    vk::check(create(instance_.get(), &messengerInfo, nullptr, &m), "vkCreateDebugUtilsMessengerEXT");
+    messenger_ = vk::UniqueMessenger(instance_.get(), m);
+  }
+
+  std::uint32_t count = 0;
+  vk::check(vkEnumeratePhysicalDevices(instance_.get(), &count, nullptr), "vkEnumeratePhysicalDevices");
+  std::vector<VkPhysicalDevice> pds(count);
+  vk::check(vkEnumeratePhysicalDevices(instance_.get(), &count, pds.data()), "vkEnumeratePhysicalDevices");
+  std::vector<VulkanDeviceInfo> devices;
+  for (std::uint32_t i = 0; i < count; ++i) devices.push_back(describe(pds[i], i));
+  std::size_t chosen = chooseVulkanDevice(devices, options.deviceIndex, options.deviceName);
+  physical_ = pds[chosen];
+  info_ = devices[chosen];
+  if (info_.apiVersion < VK_API_VERSION_1_1)
+    throwRuntime("Vulkan device " + info_.name + " supports only Vulkan " +
+                 std::to_string(VK_API_VERSION_MAJOR(info_.apiVersion)) + "." +
+                 std::to_string(VK_API_VERSION_MINOR(info_.apiVersion)) + "; voxshadow needs 1.1");
+  vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
+
+  float priority = 1.0f;
+  auto qci = vk::make<VkDeviceQueueCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
+  qci.queueFamilyIndex = info_.computeQueueFamily;
+  qci.queueCount = 1;
+  qci.pQueuePriorities = &priority;
+  auto dci = vk::make<VkDeviceCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO);
+  dci.queueCreateInfoCount = 1;
+  dci.pQueueCreateInfos = &qci;
+  VkDevice rawDevice = VK_NULL_HANDLE;
+  vk::check(vkCreateDevice(physical_, &dci, nullptr, &rawDevice), "vkCreateDevice");
+  device_ = vk::UniqueDevice(rawDevice);
+  vkGetDeviceQueue(device_.get(), info_.computeQueueFamily, 0, &queue_);
+
+  auto pci = vk::make<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
+  pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT | VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
+  pci.queueFamilyIndex = info_.computeQueueFamily;
+  VkCommandPool pool = VK_NULL_HANDLE;
+  vk::check(vkCreateCommandPool(device_.get(), &pci, nullptr, &pool), "vkCreateCommandPool");
+  commandPool_ = vk::UniqueCommandPool(device_.get(), pool);
+
+  auto fci = vk::make<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
+  VkFence fence = VK_NULL_HANDLE;
+  vk::check(vkCreateFence(device_.get(), &fci, nullptr, &fence), "vkCreateFence");
+  fence_ = vk::UniqueFence(device_.get(), fence);
+}
+
+VulkanContext::~VulkanContext() = default;
+
+std::vector<std::string> VulkanContext::validationMessages() const {
+  std::lock_guard lock(messagesMutex_);
+  return messages_;
+}
+
+std::uint32_t VulkanContext::findMemoryType(std::uint32_t typeBits, VkMemoryPropertyFlags required,
+                                            VkMemoryPropertyFlags preferred) const {
+  for (int pass = 0; pass < 2; ++pass) {
+    VkMemoryPropertyFlags want = pass == 0 ? (required | preferred) : required;
+    for (std::uint32_t i = 0; i < memory_.memoryTypeCount; ++i)
+      if ((typeBits & (1u << i)) && (memory_.memoryTypes[i].propertyFlags & want) == want) return i;
+  }
+  throwRuntime("Vulkan device " + info_.name + " has no memory type with the required properties");
+}
+
+vk::Buffer VulkanContext::createBuffer(VkDeviceSize size, VkBufferUsageFlags usage, VkMemoryPropertyFlags required,
+                                       VkMemoryPropertyFlags preferred, bool map) {
+  if (size > info_.maxMemoryAllocationSize && info_.maxMemoryAllocationSize > 0)
+    throwRuntime("Vulkan buffer of " + std::to_string(size) + " bytes exceeds the device's maxMemoryAllocationSize (" +
+                 std::to_string(info_.maxMemoryAllocationSize) + " bytes) on " + info_.name);
+  VkDevice dev = device_.get();
+  auto bci = vk::make<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
+  bci.size = size;
+  bci.usage = usage;
+  bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  VkBuffer raw = VK_NULL_HANDLE;
+  vk::check(vkCreateBuffer(dev, &bci, nullptr, &raw), "vkCreateBuffer");
+  vk::Buffer out;
+  out.buffer = vk::UniqueBuffer(dev, raw);
+  out.size = size;
+  VkMemoryRequirements req{};
+  vkGetBufferMemoryRequirements(dev, raw, &req);
+  auto ai = vk::make<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
+  ai.allocationSize = req.size;
+  ai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, required, preferred);
+  VkDeviceMemory mem = VK_NULL_HANDLE;
+  VkResult r = vkAllocateMemory(dev, &ai, nullptr, &mem);
+  if (r == VK_ERROR_OUT_OF_DEVICE_MEMORY || r == VK_ERROR_OUT_OF_HOST_MEMORY)
+    throwRuntime("Vulkan device " + info_.name + " is out of memory allocating " + std::to_string(req.size) +
+                 " bytes (device-local heap: " + std::to_string(info_.deviceLocalBytes) + " bytes)");
+  vk::check(r, "vkAllocateMemory");
+  out.memory = vk::UniqueMemory(dev, mem);
+  vk::check(vkBindBufferMemory(dev, raw, mem, 0), "vkBindBufferMemory");
+  if (map) vk::check(vkMapMemory(dev, mem, 0, VK_WHOLE_SIZE, 0, &out.mapped), "vkMapMemory");
+  return out;
+}
+
+vk::Buffer VulkanContext::createDeviceBuffer(VkDeviceSize size, VkBufferUsageFlags usage) {
+  return createBuffer(size, usage, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, false);
+}
+
+vk::Buffer VulkanContext::createHostBuffer(VkDeviceSize size, VkBufferUsageFlags usage) {
+  return createBuffer(size, usage, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                      VK_MEMORY_PROPERTY_HOST_CACHED_BIT, true);
+}
+
+vk::Image VulkanContext::createStorageImage(std::uint32_t width, std::uint32_t height, std::uint32_t layers) {
+  if (width > info_.maxImageDimension2D || height > info_.maxImageDimension2D || layers > info_.maxImageArrayLayers)
+    throwRuntime("shadow image " + std::to_string(width) + "x" + std::to_string(height) + "x" +
+                 std::to_string(layers) + " exceeds the device's maxImageDimension2D (" +
+                 std::to_string(info_.maxImageDimension2D) + ") or maxImageArrayLayers (" +
+                 std::to_string(info_.maxImageArrayLayers) + ") on " + info_.name);
+  VkDevice dev = device_.get();
+  auto ici = vk::make<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
+  ici.imageType = VK_IMAGE_TYPE_2D;
+  ici.format = VK_FORMAT_R32_SFLOAT;
+  ici.extent = {width, height, 1};
+  ici.mipLevels = 1;
+  ici.arrayLayers = layers;
+  ici.samples = VK_SAMPLE_COUNT_1_BIT;
+  ici.tiling = VK_IMAGE_TILING_OPTIMAL;
+  ici.usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+  ici.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  ici.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  VkImage raw = VK_NULL_HANDLE;
+  vk::check(vkCreateImage(dev, &ici, nullptr, &raw), "vkCreateImage");
+  vk::Image out;
+  out.image = vk::UniqueImage(dev, raw);
+  out.extent = ici.extent;
+  out.layers = layers;
+  VkMemoryRequirements req{};
+  vkGetImageMemoryRequirements(dev, raw, &req);
+  auto ai = vk::make<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
+  ai.allocationSize = req.size;
+  ai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  VkDeviceMemory mem = VK_NULL_HANDLE;
+  vk::check(vkAllocateMemory(dev, &ai, nullptr, &mem), "vkAllocateMemory (shadow image)");
+  out.memory = vk::UniqueMemory(dev, mem);
+  vk::check(vkBindImageMemory(dev, raw, mem, 0), "vkBindImageMemory");
+
+  auto vci = vk::make<VkImageViewCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO);
+  vci.image = raw;
+  vci.viewType = VK_IMAGE_VIEW_TYPE_2D_ARRAY;
+  vci.format = VK_FORMAT_R32_SFLOAT;
+  vci.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, layers};
+  VkImageView view = VK_NULL_HANDLE;
+  vk::check(vkCreateImageView(dev, &vci, nullptr, &view), "vkCreateImageView");
+  out.view = vk::UniqueImageView(dev, view);
+
+  // The image lives in GENERAL: written by the shader, read by copies, never sampled.
+  submitAndWait([&](VkCommandBuffer cmd) {
+    auto b = vk::make<VkImageMemoryBarrier>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER);
+    b.srcAccessMask = 0;
+    b.dstAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT;
+    b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    b.newLayout = VK_IMAGE_LAYOUT_GENERAL;
+    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = raw;
+    b.subresourceRange = vci.subresourceRange;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT,
+                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0,
+                         nullptr, 1, &b);
+  });
+  return out;
+}
+
+vk::UniqueCommandBuffer VulkanContext::allocateCommandBuffer() {
+  auto ai = vk::make<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
+  ai.commandPool = commandPool_.get();
+  ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  ai.commandBufferCount = 1;
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  vk::check(vkAllocateCommandBuffers(device_.get(), &ai, &cmd), "vkAllocateCommandBuffers");
+  return vk::UniqueCommandBuffer(device_.get(), commandPool_.get(), cmd);
+}
+
+void VulkanContext::submitAndWait(const std::function<void(VkCommandBuffer)>& record) {
+  vk::UniqueCommandBuffer cmd = allocateCommandBuffer();
+  auto bi = vk::make<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
+  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  vk::check(vkBeginCommandBuffer(cmd.get(), &bi), "vkBeginCommandBuffer");
+  record(cmd.get());
+  vk::check(vkEndCommandBuffer(cmd.get()), "vkEndCommandBuffer");
+  VkCommandBuffer raw = cmd.get();
+  auto si = vk::make<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
+  si.commandBufferCount = 1;
+  si.pCommandBuffers = &raw;
+  VkFence fence = fence_.get();
+  vk::check(vkResetFences(device_.get(), 1, &fence), "vkResetFences");
+  vk::check(vkQueueSubmit(queue_, 1, &si, fence), "vkQueueSubmit");
+  vk::check(vkWaitForFences(device_.get(), 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+}
+
+void VulkanContext::upload(const vk::Buffer& dst, VkDeviceSize offset, const void* data, VkDeviceSize size) {
+  if (size == 0) return;
+  VkDeviceSize stagingSize = std::min(size, kStagingBytes);
+  if (!staging_.buffer || staging_.size < stagingSize)
+    staging_ = createHostBuffer(stagingSize, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+  const auto* bytes = static_cast<const std::uint8_t*>(data);
+  for (VkDeviceSize done = 0; done < size;) {
+    VkDeviceSize n = std::min(size - done, staging_.size);
+    std::memcpy(staging_.mapped, bytes + done, n);
+    submitAndWait([&](VkCommandBuffer cmd) {
+      VkBufferCopy copy{0, offset + done, n};
+      vkCmdCopyBuffer(cmd, staging_.get(), dst.get(), 1, &copy);
+    });
+    done += n;
+  }
+}
+
+vk::UniqueShaderModule VulkanContext::createShaderModule(const std::uint32_t* code, std::size_t bytes) {
+  auto ci = vk::make<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
+  ci.codeSize = bytes;
+  ci.pCode = code;
+  VkShaderModule m = VK_NULL_HANDLE;
+  vk::check(vkCreateShaderModule(device_.get(), &ci, nullptr, &m), "vkCreateShaderModule");
+  return vk::UniqueShaderModule(device_.get(), m);
+}
+
+}  // namespace vs

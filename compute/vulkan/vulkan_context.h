@@ -1,0 +1,124 @@
+// vulkan_context.h: the Vulkan instance, the chosen device and its compute queue, validation capture,
+// and the buffer/image/submit primitives the trace passes are built from.
+#ifndef VOXSHADOW_VULKAN_CONTEXT_H
+#define VOXSHADOW_VULKAN_CONTEXT_H
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <vulkan/vulkan.h>
+
+#include "compute/vulkan/vk_raii.h"
+
+namespace vs {
+
+enum class VulkanDeviceType { Discrete, Integrated, Virtual, Cpu, Other };
+const char* toString(VulkanDeviceType type);
+
+struct VulkanDeviceInfo {
+  std::uint32_t index = 0;  // position in vkEnumeratePhysicalDevices order
+  std::string name;
+  VulkanDeviceType type = VulkanDeviceType::Other;
+  std::string driverName;  // e.g. "llvmpipe"; empty when the driver does not report it
+  std::string driverInfo;
+  std::uint32_t apiVersion = 0;
+  std::uint32_t driverVersion = 0;
+  std::array<std::uint8_t, VK_UUID_SIZE> pipelineCacheUuid{};
+  std::uint64_t maxStorageBufferRange = 0;
+  std::uint64_t maxMemoryAllocationSize = 0;
+  std::uint64_t deviceLocalBytes = 0;  // size of the largest device-local heap
+  std::uint32_t maxPerStageStorageBuffers = 0;
+  std::uint32_t maxImageDimension2D = 0;
+  std::uint32_t maxImageArrayLayers = 0;
+  std::array<std::uint32_t, 3> maxWorkGroupCount{};
+  std::uint32_t timestampValidBits = 0;  // of the compute queue family; 0: no GPU timings
+  float timestampPeriodNs = 0.0f;
+  std::uint32_t computeQueueFamily = 0;
+  bool hasComputeQueue = false;
+};
+
+// Every physical device the Vulkan loader sees, in enumeration order.
+// Throws vs::Error(Runtime) when Vulkan itself cannot start; an empty list when it starts with no device.
+std::vector<VulkanDeviceInfo> listVulkanDevices();
+
+// The device a choice picks: deviceIndex >= 0 picks that index; else a non-empty deviceName picks the first
+// device whose name contains it (case-insensitive); else the best by type (discrete > integrated > virtual >
+// CPU). Only devices with a compute queue qualify. Throws vs::Error(Runtime) "no Vulkan device found ..." when
+// the list is empty, vs::Error(BadInput) when the index or name matches nothing (the message lists devices).
+std::size_t chooseVulkanDevice(const std::vector<VulkanDeviceInfo>& devices, int deviceIndex,
+                               const std::string& deviceName);
+
+struct VulkanContextOptions {
+  int deviceIndex = -1;
+  std::string deviceName;
+  // Unset: on when the environment has VOXSHADOW_VALIDATION=1.
+  std::optional<bool> validation;
+};
+
+// Owns the instance, device, compute queue and one command pool. Not copyable or movable (the debug
+// messenger points at it). All methods are called from one thread at a time, except validationMessages().
+class VulkanContext {
+ public:
+  // Throws vs::Error(Runtime) when no device exists, when validation is requested but
+  // VK_LAYER_KHRONOS_validation or VK_EXT_debug_utils is missing, or when device creation fails.
+  explicit VulkanContext(const VulkanContextOptions& options = {});
+  ~VulkanContext();
+  VulkanContext(const VulkanContext&) = delete;
+  VulkanContext& operator=(const VulkanContext&) = delete;
+
+  const VulkanDeviceInfo& info() const { return info_; }
+  VkInstance instance() const { return instance_.get(); }
+  VkPhysicalDevice physicalDevice() const { return physical_; }
+  VkDevice device() const { return device_.get(); }
+  VkQueue queue() const { return queue_; }
+  bool validationEnabled() const { return validation_; }
+  // Every warning and error the validation layer (or loader) reported so far, oldest first.
+  std::vector<std::string> validationMessages() const;
+
+  // Buffer creation. Preconditions: size > 0. Throws vs::Error(Runtime) when no memory type fits.
+  vk::Buffer createDeviceBuffer(VkDeviceSize size, VkBufferUsageFlags usage);
+  vk::Buffer createHostBuffer(VkDeviceSize size, VkBufferUsageFlags usage);  // host-visible, coherent, mapped
+  // An R32F 2D-array storage image in VK_IMAGE_LAYOUT_GENERAL. Preconditions: width, height, layers > 0.
+  vk::Image createStorageImage(std::uint32_t width, std::uint32_t height, std::uint32_t layers);
+
+  vk::UniqueCommandBuffer allocateCommandBuffer();
+  // Records through `record` into a fresh command buffer, submits it and waits for completion.
+  void submitAndWait(const std::function<void(VkCommandBuffer)>& record);
+  // Copies bytes into a device buffer through a staging buffer. Precondition: offset + size <= dst.size.
+  void upload(const vk::Buffer& dst, VkDeviceSize offset, const void* data, VkDeviceSize size);
+
+  vk::UniqueShaderModule createShaderModule(const std::uint32_t* code, std::size_t bytes);
+
+ private:
+  std::uint32_t findMemoryType(std::uint32_t typeBits, VkMemoryPropertyFlags required,
+                               VkMemoryPropertyFlags preferred) const;
+  vk::Buffer createBuffer(VkDeviceSize size, VkBufferUsageFlags usage, VkMemoryPropertyFlags required,
+                          VkMemoryPropertyFlags preferred, bool map);
+  static VKAPI_ATTR VkBool32 VKAPI_CALL onMessage(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                                  VkDebugUtilsMessageTypeFlagsEXT types,
+                                                  const VkDebugUtilsMessengerCallbackDataEXT* data, void* user);
+
+  bool validation_ = false;
+  mutable std::mutex messagesMutex_;
+  std::vector<std::string> messages_;
+  vk::UniqueInstance instance_;
+  vk::UniqueMessenger messenger_;
+  VkPhysicalDevice physical_ = VK_NULL_HANDLE;
+  VulkanDeviceInfo info_;
+  VkPhysicalDeviceMemoryProperties memory_{};
+  vk::UniqueDevice device_;
+  VkQueue queue_ = VK_NULL_HANDLE;
+  vk::UniqueCommandPool commandPool_;
+  vk::UniqueFence fence_;
+  vk::Buffer staging_;
+};
+
+}  // namespace vs
+
+#endif

@@ -1,0 +1,455 @@
+// vulkan_tracer.cpp: scene upload (split across bindings), the trace dispatch, timestamps and readback.
+#include "compute/vulkan/vulkan_tracer.h"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <chrono>
+#include <cstring>
+
+#include "compute/vulkan/pipeline_cache.h"
+#include "shadow_trace.spv.h"
+#include "voxel/error.h"
+
+namespace vs {
+namespace {
+
+constexpr std::uint32_t kSplitBindings = kSplitArrayCount;  // bindings 0..4
+constexpr std::uint32_t kObjectsBinding = 5, kInstancesBinding = 6, kNodesBinding = 7, kIndicesBinding = 8;
+constexpr std::uint32_t kViewsBinding = 9, kImageBinding = 10;
+constexpr const char* kSplitNames[kSplitArrayCount] = {"regionTable", "regions", "sectors", "bricks", "occupancy"};
+
+// Mirrors the shader's TracePush block.
+struct TracePush {
+  std::uint32_t nodeCount;
+  std::uint32_t layerCount;
+  std::uint32_t shifts[kSplitArrayCount];
+  std::uint32_t reserved;
+};
+static_assert(sizeof(TracePush) == 32);
+
+std::string mib(std::uint64_t bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f MiB", double(bytes) / (1024.0 * 1024.0));
+  return buf;
+}
+
+double msSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// One array's device copy: its buffers and how indices map onto them.
+struct DeviceArray {
+  std::vector<vk::Buffer> buffers;
+  std::uint64_t elements = 0;
+  std::uint32_t shift = 0;
+};
+
+}  // namespace
+
+struct VulkanTracer::Impl {
+  VulkanOptions options;
+  VulkanContext context;
+  std::unique_ptr<DiskPipelineCache> cache;
+  vk::ComputePipeline pipeline;
+  vk::UniqueDescriptorPool descriptorPool;
+  VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
+  vk::UniqueQueryPool queryPool;
+  PipelineStats pipelineStats;
+
+  std::array<DeviceArray, kSplitArrayCount> split;
+  std::array<DeviceArray, 4> whole;  // objects, instances, nodes, instanceIndices
+  vk::Buffer placeholder;
+  std::uint32_t nodeCount = 0;
+  bool uploaded = false;
+
+  vk::Buffer viewBuffer;
+  vk::Buffer readback;
+  vk::Image image;
+
+  explicit Impl(const VulkanOptions& o)
+      : options(o), context(VulkanContextOptions{o.deviceIndex, o.deviceName, o.validation}) {
+    const VulkanDeviceInfo& info = context.info();
+    std::uint32_t needed = kSplitArrayCount * kMaxBuffersPerArray + 5;
+    if (info.maxPerStageStorageBuffers < needed)
+      throwRuntime("Vulkan device " + info.name + " allows " + std::to_string(info.maxPerStageStorageBuffers) +
+                   " storage buffers per shader stage (maxPerStageDescriptorStorageBuffers); the trace shader needs " +
+                   std::to_string(needed));
+    createPipeline();
+    placeholder = context.createDeviceBuffer(16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+    if (info.timestampValidBits > 0) {
+      auto qi = vk::make<VkQueryPoolCreateInfo>(VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO);
+      qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+      qi.queryCount = 2;
+      VkQueryPool q = VK_NULL_HANDLE;
+      vk::check(vkCreateQueryPool(context.device(), &qi, nullptr, &q), "vkCreateQueryPool");
+      queryPool = vk::UniqueQueryPool(context.device(), q);
+    }
+  }
+
+  void createPipeline() {
+    VkDevice dev = context.device();
+    std::vector<VkDescriptorSetLayoutBinding> bindings;
+    for (std::uint32_t b = 0; b <= kImageBinding; ++b) {
+      VkDescriptorSetLayoutBinding lb{};
+      lb.binding = b;
+      lb.descriptorType = b == kImageBinding ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      lb.descriptorCount = b < kSplitBindings ? kMaxBuffersPerArray : 1;
+      lb.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+      bindings.push_back(lb);
+    }
+    auto dl = vk::make<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
+    dl.bindingCount = static_cast<std::uint32_t>(bindings.size());
+    dl.pBindings = bindings.data();
+    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+    vk::check(vkCreateDescriptorSetLayout(dev, &dl, nullptr, &setLayout), "vkCreateDescriptorSetLayout");
+    pipeline.setLayout = vk::UniqueDescriptorSetLayout(dev, setLayout);
+
+    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(TracePush)};
+    auto pl = vk::make<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
+    pl.setLayoutCount = 1;
+    pl.pSetLayouts = &setLayout;
+    pl.pushConstantRangeCount = 1;
+    pl.pPushConstantRanges = &range;
+    VkPipelineLayout layout = VK_NULL_HANDLE;
+    vk::check(vkCreatePipelineLayout(dev, &pl, nullptr, &layout), "vkCreatePipelineLayout");
+    pipeline.layout = vk::UniquePipelineLayout(dev, layout);
+
+    std::filesystem::path dir = options.cacheDir.empty() ? defaultPipelineCacheDir() : options.cacheDir;
+    cache = std::make_unique<DiskPipelineCache>(context, dir);
+    vk::UniqueShaderModule module = context.createShaderModule(shadow_trace, sizeof(shadow_trace));
+    auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
+    ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
+    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    ci.stage.module = module.get();
+    ci.stage.pName = "main";
+    ci.layout = layout;
+    auto t0 = std::chrono::steady_clock::now();
+    VkPipeline p = VK_NULL_HANDLE;
+    vk::check(vkCreateComputePipelines(dev, cache->get(), 1, &ci, nullptr, &p), "vkCreateComputePipelines");
+    pipeline.pipeline = vk::UniquePipeline(dev, p);
+    pipelineStats.createMs = msSince(t0);
+    pipelineStats.warmCache = cache->warm();
+    pipelineStats.cacheFile = cache->file();
+    pipelineStats.cacheSaved = cache->save();
+    pipelineStats.cacheError = cache->lastError();
+
+    std::array<VkDescriptorPoolSize, 2> sizes{{
+        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kSplitBindings * kMaxBuffersPerArray + 5},
+        {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1},
+    }};
+    auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+    dp.maxSets = 1;
+    dp.poolSizeCount = static_cast<std::uint32_t>(sizes.size());
+    dp.pPoolSizes = sizes.data();
+    VkDescriptorPool pool = VK_NULL_HANDLE;
+    vk::check(vkCreateDescriptorPool(dev, &dp, nullptr, &pool), "vkCreateDescriptorPool");
+    descriptorPool = vk::UniqueDescriptorPool(dev, pool);
+    auto ai = vk::make<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+    ai.descriptorPool = pool;
+    ai.descriptorSetCount = 1;
+    ai.pSetLayouts = &setLayout;
+    vk::check(vkAllocateDescriptorSets(dev, &ai, &descriptorSet), "vkAllocateDescriptorSets");
+  }
+
+  std::uint64_t bindingLimit() const {
+    std::uint64_t limit = context.info().maxStorageBufferRange;
+    if (options.maxBindingBytes > 0) limit = std::min(limit, options.maxBindingBytes);
+    return limit;
+  }
+
+  // Uploads one array, reusing its buffers when the element count (and so the split) is unchanged.
+  void uploadArray(DeviceArray& dst, const void* data, std::uint64_t elements, std::uint64_t elementSize,
+                   std::uint64_t elementsPerBuffer, std::uint32_t shift) {
+    const auto usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    bool reuse = dst.elements == elements && dst.shift == shift && !dst.buffers.empty();
+    if (!reuse) {
+      dst.buffers.clear();
+      for (std::uint64_t first = 0; first < elements; first += elementsPerBuffer) {
+        std::uint64_t n = std::min(elementsPerBuffer, elements - first);
+        dst.buffers.push_back(context.createDeviceBuffer(n * elementSize, usage));
+      }
+      dst.elements = elements;
+      dst.shift = shift;
+    }
+    const auto* bytes = static_cast<const std::uint8_t*>(data);
+    for (std::size_t b = 0; b < dst.buffers.size(); ++b)
+      context.upload(dst.buffers[b], 0, bytes + b * elementsPerBuffer * elementSize, dst.buffers[b].size);
+  }
+
+  void upload(const SceneArrays& s) {
+    const VulkanDeviceInfo& info = context.info();
+    const std::uint64_t limit = bindingLimit();
+    struct Src {
+      const void* data;
+      std::uint64_t elements;
+      std::uint64_t size;
+    };
+    std::array<Src, kSplitArrayCount> splitSrc{{
+        {s.regionTable.data(), s.regionTable.size(), sizeof(std::uint32_t)},
+        {s.regions.data(), s.regions.size(), sizeof(gpu::Region)},
+        {s.sectors.data(), s.sectors.size(), sizeof(gpu::Sector)},
+        {s.bricks.data(), s.bricks.size(), sizeof(gpu::Brick)},
+        {s.occupancy.data(), s.occupancy.size(), sizeof(std::uint32_t)},
+    }};
+    std::array<Src, 4> wholeSrc{{
+        {s.objects.data(), s.objects.size(), sizeof(gpu::ObjectRecord)},
+        {s.instances.data(), s.instances.size(), sizeof(gpu::InstanceRecord)},
+        {s.nodes.data(), s.nodes.size(), sizeof(gpu::BvhNode)},
+        {s.instanceIndices.data(), s.instanceIndices.size(), sizeof(std::uint32_t)},
+    }};
+    const char* wholeNames[4] = {"objects", "instances", "nodes", "instanceIndices"};
+
+    // Refuse what cannot fit before allocating anything.
+    std::uint64_t total = 0;
+    std::array<std::uint64_t, kSplitArrayCount> perBuffer{};
+    std::array<std::uint32_t, kSplitArrayCount> shifts{};
+    for (int a = 0; a < kSplitArrayCount; ++a) {
+      std::uint64_t bytes = splitSrc[a].elements * splitSrc[a].size;
+      total += bytes;
+      // A power-of-two element count per buffer lets the shader split an index with a shift and a mask.
+      std::uint64_t fit = std::min<std::uint64_t>(limit / splitSrc[a].size, std::uint64_t(1) << 31);
+      if (fit == 0) throwRuntime("binding limit of " + std::to_string(limit) + " bytes is below one element");
+      perBuffer[a] = std::bit_floor(fit);
+      shifts[a] = static_cast<std::uint32_t>(std::countr_zero(perBuffer[a]));
+      std::uint64_t buffers = (splitSrc[a].elements + perBuffer[a] - 1) / perBuffer[a];
+      if (buffers > kMaxBuffersPerArray)
+        throwRuntime("scene array '" + std::string(kSplitNames[a]) + "' needs " + mib(bytes) + ", more than " +
+                     std::to_string(kMaxBuffersPerArray) + " buffers of the device's storage-buffer limit (" +
+                     mib(limit) + ", maxStorageBufferRange) on " + info.name);
+    }
+    for (int a = 0; a < 4; ++a) {
+      std::uint64_t bytes = wholeSrc[a].elements * wholeSrc[a].size;
+      total += bytes;
+      // These arrays are bound whole: only the device limit applies, not the splitting threshold.
+      if (bytes > info.maxStorageBufferRange)
+        throwRuntime("scene array '" + std::string(wholeNames[a]) + "' needs " + mib(bytes) +
+                     ", more than the device's storage-buffer limit (" + mib(info.maxStorageBufferRange) +
+                     ", maxStorageBufferRange) on " + info.name);
+    }
+    if (info.deviceLocalBytes > 0 && total > info.deviceLocalBytes)
+      throwRuntime("scene needs " + mib(total) + " of device memory, more than the device-local heap (" +
+                   mib(info.deviceLocalBytes) + ") of " + info.name);
+
+    for (int a = 0; a < kSplitArrayCount; ++a)
+      uploadArray(split[a], splitSrc[a].data, splitSrc[a].elements, splitSrc[a].size, perBuffer[a], shifts[a]);
+    for (int a = 0; a < 4; ++a)
+      uploadArray(whole[a], wholeSrc[a].data, wholeSrc[a].elements, wholeSrc[a].size,
+                  std::max<std::uint64_t>(wholeSrc[a].elements, 1), 0);
+    nodeCount = static_cast<std::uint32_t>(s.nodes.size());
+    uploaded = true;
+  }
+
+  void writeDescriptors() {
+    std::vector<VkDescriptorBufferInfo> infos;
+    infos.reserve(kSplitBindings * kMaxBuffersPerArray + 5);
+    std::vector<VkWriteDescriptorSet> writes;
+    auto bufferInfo = [&](const vk::Buffer* b) {
+      const vk::Buffer& use = b ? *b : placeholder;
+      infos.push_back({use.get(), 0, VK_WHOLE_SIZE});
+      return &infos.back();
+    };
+    for (std::uint32_t a = 0; a < kSplitBindings; ++a) {
+      VkDescriptorBufferInfo* first = nullptr;
+      for (int c = 0; c < kMaxBuffersPerArray; ++c) {
+        const auto& bufs = split[a].buffers;
+        VkDescriptorBufferInfo* p = bufferInfo(c < int(bufs.size()) ? &bufs[c] : nullptr);
+        if (c == 0) first = p;
+      }
+      auto w = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+      w.dstSet = descriptorSet;
+      w.dstBinding = a;
+      w.descriptorCount = kMaxBuffersPerArray;
+      w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      w.pBufferInfo = first;
+      writes.push_back(w);
+    }
+    const vk::Buffer* singles[5] = {
+        whole[0].buffers.empty() ? nullptr : &whole[0].buffers[0],
+        whole[1].buffers.empty() ? nullptr : &whole[1].buffers[0],
+        whole[2].buffers.empty() ? nullptr : &whole[2].buffers[0],
+        whole[3].buffers.empty() ? nullptr : &whole[3].buffers[0],
+        &viewBuffer,
+    };
+    for (std::uint32_t i = 0; i < 5; ++i) {
+      auto w = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+      w.dstSet = descriptorSet;
+      w.dstBinding = kObjectsBinding + i;
+      w.descriptorCount = 1;
+      w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      w.pBufferInfo = bufferInfo(singles[i]);
+      writes.push_back(w);
+    }
+    VkDescriptorImageInfo imageInfo{VK_NULL_HANDLE, image.view.get(), VK_IMAGE_LAYOUT_GENERAL};
+    auto w = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+    w.dstSet = descriptorSet;
+    w.dstBinding = kImageBinding;
+    w.descriptorCount = 1;
+    w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
+    w.pImageInfo = &imageInfo;
+    writes.push_back(w);
+    vkUpdateDescriptorSets(context.device(), static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
+  }
+
+  TraceStats trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) {
+    auto t0 = std::chrono::steady_clock::now();
+    if (!uploaded) throwRuntime("VulkanTracer::trace called before upload()");
+    TraceStats stats;
+    layers.resize(views.size());
+    std::uint32_t maxW = 1, maxH = 1, dispatchW = 0, dispatchH = 0;
+    std::uint64_t readbackTexels = 0;
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      const gpu::TraceView& v = views[i];
+      int w = v.info.x, h = v.info.y;
+      if (w <= 0 || h <= 0)
+        throwBadInput("trace view " + std::to_string(i) + ": size " + std::to_string(w) + "x" + std::to_string(h) +
+                      " must be positive");
+      const glm::ivec4& r = v.rect;
+      if (r.x < 0 || r.y < 0 || r.x > r.z || r.y > r.w || r.z > w || r.w > h)
+        throwBadInput("trace view " + std::to_string(i) + ": rect (" + std::to_string(r.x) + ", " +
+                      std::to_string(r.y) + ", " + std::to_string(r.z) + ", " + std::to_string(r.w) +
+                      ") must lie inside the " + std::to_string(w) + "x" + std::to_string(h) + " view");
+      if (layers[i].width != w || layers[i].height != h) {
+        layers[i].width = w;
+        layers[i].height = h;
+        layers[i].texels.assign(std::size_t(w) * std::size_t(h), 0.0f);
+      }
+      maxW = std::max<std::uint32_t>(maxW, w);
+      maxH = std::max<std::uint32_t>(maxH, h);
+      dispatchW = std::max<std::uint32_t>(dispatchW, r.z - r.x);
+      dispatchH = std::max<std::uint32_t>(dispatchH, r.w - r.y);
+      readbackTexels += std::uint64_t(r.z - r.x) * std::uint64_t(r.w - r.y);
+    }
+    stats.rays = readbackTexels;
+    if (readbackTexels == 0) {
+      stats.wallMs = msSince(t0);
+      return stats;
+    }
+    const VulkanDeviceInfo& info = context.info();
+    std::uint32_t groupsX = (dispatchW + 7) / 8, groupsY = (dispatchH + 7) / 8;
+    auto layerCount = static_cast<std::uint32_t>(views.size());
+    if (groupsX > info.maxWorkGroupCount[0] || groupsY > info.maxWorkGroupCount[1] ||
+        layerCount > info.maxWorkGroupCount[2])
+      throwRuntime("trace of " + std::to_string(dispatchW) + "x" + std::to_string(dispatchH) + "x" +
+                   std::to_string(layerCount) + " texels exceeds maxComputeWorkGroupCount on " + info.name);
+
+    // The image only grows, so a later partial trace of a smaller batch reuses it.
+    if (!image.image || image.extent.width < maxW || image.extent.height < maxH || image.layers < layerCount)
+      image = context.createStorageImage(std::max(maxW, image.extent.width), std::max(maxH, image.extent.height),
+                                         std::max(layerCount, image.layers));
+    VkDeviceSize viewBytes = views.size_bytes();
+    if (!viewBuffer.buffer || viewBuffer.size < viewBytes)
+      viewBuffer = context.createHostBuffer(viewBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    std::memcpy(viewBuffer.mapped, views.data(), viewBytes);
+    VkDeviceSize readbackBytes = readbackTexels * sizeof(float);
+    if (!readback.buffer || readback.size < readbackBytes)
+      readback = context.createHostBuffer(readbackBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+    writeDescriptors();
+
+    std::vector<VkBufferImageCopy> copies;
+    VkDeviceSize offset = 0;
+    for (std::uint32_t i = 0; i < layerCount; ++i) {
+      const glm::ivec4& r = views[i].rect;
+      if (r.z == r.x || r.w == r.y) continue;
+      VkBufferImageCopy c{};
+      c.bufferOffset = offset;
+      c.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, i, 1};
+      c.imageOffset = {r.x, r.y, 0};
+      c.imageExtent = {std::uint32_t(r.z - r.x), std::uint32_t(r.w - r.y), 1};
+      copies.push_back(c);
+      offset += VkDeviceSize(r.z - r.x) * VkDeviceSize(r.w - r.y) * sizeof(float);
+    }
+
+    TracePush push{};
+    push.nodeCount = nodeCount;
+    push.layerCount = layerCount;
+    for (int a = 0; a < kSplitArrayCount; ++a) push.shifts[a] = split[a].shift;
+
+    context.submitAndWait([&](VkCommandBuffer cmd) {
+      // Earlier uploads, host writes of the views, and the previous readback all precede this dispatch.
+      auto before = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+      before.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_WRITE_BIT;
+      before.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
+      if (queryPool) {
+        vkCmdResetQueryPool(cmd, queryPool.get(), 0, 2);
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queryPool.get(), 0);
+      }
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline.get());
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet, 0,
+                              nullptr);
+      vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+      vkCmdDispatch(cmd, groupsX, groupsY, layerCount);
+      if (queryPool) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queryPool.get(), 1);
+
+      auto toCopy = vk::make<VkImageMemoryBarrier>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER);
+      toCopy.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+      toCopy.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+      toCopy.oldLayout = VK_IMAGE_LAYOUT_GENERAL;
+      toCopy.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+      toCopy.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+      toCopy.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+      toCopy.image = image.get();
+      toCopy.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, image.layers};
+      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr,
+                           0, nullptr, 1, &toCopy);
+      vkCmdCopyImageToBuffer(cmd, image.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.get(),
+                             static_cast<std::uint32_t>(copies.size()), copies.data());
+      // Back to GENERAL for the next dispatch; the layout change keeps the texels.
+      VkImageMemoryBarrier toShader = toCopy;
+      toShader.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+      toShader.dstAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+      toShader.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+      toShader.newLayout = VK_IMAGE_LAYOUT_GENERAL;
+      auto toHost = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+      toHost.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+      toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                           0, 1, &toHost, 0, nullptr, 1, &toShader);
+    });
+
+    const auto* texels = static_cast<const float*>(readback.mapped);
+    for (std::uint32_t i = 0; i < layerCount; ++i) {
+      const glm::ivec4& r = views[i].rect;
+      int w = r.z - r.x;
+      ShadowLayer& layer = layers[i];
+      for (int y = r.y; y < r.w; ++y) {
+        std::memcpy(&layer.texels[std::size_t(y) * layer.width + r.x], texels, std::size_t(w) * sizeof(float));
+        texels += w;
+      }
+    }
+
+    if (queryPool) {
+      std::uint64_t ts[2] = {0, 0};
+      vk::check(vkGetQueryPoolResults(context.device(), queryPool.get(), 0, 2, sizeof ts, ts, sizeof(std::uint64_t),
+                                      VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+                "vkGetQueryPoolResults");
+      std::uint64_t mask = info.timestampValidBits >= 64 ? ~std::uint64_t(0)
+                                                         : (std::uint64_t(1) << info.timestampValidBits) - 1;
+      std::uint64_t ticks = ((ts[1] & mask) - (ts[0] & mask)) & mask;
+      stats.gpuMs = double(ticks) * double(info.timestampPeriodNs) * 1e-6;
+    }
+    stats.wallMs = msSince(t0);
+    double ms = stats.gpuMs > 0.0 ? stats.gpuMs : stats.wallMs;
+    if (ms > 0.0) stats.mraysPerSecond = double(stats.rays) / (ms * 1e3);
+    return stats;
+  }
+};
+
+VulkanTracer::VulkanTracer(const VulkanOptions& options) : impl_(std::make_unique<Impl>(options)) {}
+VulkanTracer::~VulkanTracer() = default;
+void VulkanTracer::upload(const SceneData& scene) { impl_->upload(SceneArrays::from(scene)); }
+void VulkanTracer::upload(const SceneArrays& scene) { impl_->upload(scene); }
+TraceStats VulkanTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) {
+  return impl_->trace(views, layers);
+}
+const VulkanDeviceInfo& VulkanTracer::device() const { return impl_->context.info(); }
+const PipelineStats& VulkanTracer::pipelineStats() const { return impl_->pipelineStats; }
+int VulkanTracer::bufferCount(SplitArray array) const {
+  return std::max<int>(1, static_cast<int>(impl_->split[static_cast<int>(array)].buffers.size()));
+}
+std::vector<std::string> VulkanTracer::validationMessages() const { return impl_->context.validationMessages(); }
+VulkanContext& VulkanTracer::context() { return impl_->context; }
+
+}  // namespace vs

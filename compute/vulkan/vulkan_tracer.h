@@ -1,0 +1,107 @@
+// vulkan_tracer.h: the Vulkan shadow-trace backend: the portable traversal (compute/shared/traverse.h) run as
+// a compute shader over the scene arrays, one invocation per texel, into an R32F 2D-array image.
+#ifndef VOXSHADOW_VULKAN_TRACER_H
+#define VOXSHADOW_VULKAN_TRACER_H
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "compute/cpu/cpu_tracer.h"
+#include "compute/scene_data.h"
+#include "compute/vulkan/vulkan_context.h"
+
+namespace vs {
+
+struct VulkanOptions {
+  int deviceIndex = -1;       // >= 0: that device (listVulkanDevices order)
+  std::string deviceName;     // else: first device whose name contains this (case-insensitive)
+  std::optional<bool> validation;  // unset: VOXSHADOW_VALIDATION=1 in the environment turns it on
+  std::filesystem::path cacheDir;  // empty: defaultPipelineCacheDir()
+  // Largest storage-buffer binding to use, in bytes; 0 uses the device's maxStorageBufferRange. Smaller
+  // values split the scene arrays into more buffers (the path large scenes take), e.g. to test it.
+  std::uint64_t maxBindingBytes = 0;
+};
+
+// Views into the arrays the shader reads, named as its buffers. Lets callers trace arrays they assembled
+// themselves; SceneData gives them through from().
+struct SceneArrays {
+  std::span<const std::uint32_t> regionTable;
+  std::span<const gpu::Region> regions;
+  std::span<const gpu::Sector> sectors;
+  std::span<const gpu::Brick> bricks;
+  std::span<const std::uint32_t> occupancy;
+  std::span<const gpu::ObjectRecord> objects;
+  std::span<const gpu::InstanceRecord> instances;
+  std::span<const gpu::BvhNode> nodes;
+  std::span<const std::uint32_t> instanceIndices;
+
+  static SceneArrays from(const SceneData& scene) {
+    return {scene.regionTable, scene.regions, scene.sectors, scene.bricks, scene.occupancy,
+            scene.objects, scene.instances, scene.bvh.nodes(), scene.bvh.instanceIndices()};
+  }
+};
+
+// The arrays the shader may split over several bindings, in binding order.
+enum class SplitArray { RegionTable = 0, Regions, Sectors, Bricks, Occupancy };
+inline constexpr int kSplitArrayCount = 5;
+// Bindings per split array in the shader (VS_MAX_CHUNKS in compute/shaders/shadow_trace.comp).
+inline constexpr int kMaxBuffersPerArray = 4;
+
+struct TraceStats {
+  std::uint64_t rays = 0;      // texels traced (sum of the views' rectangle areas)
+  double gpuMs = -1.0;         // dispatch time from GPU timestamps; < 0 when the queue has none
+  double wallMs = 0.0;         // host time of the whole call: descriptor updates, dispatch, readback
+  double mraysPerSecond = 0.0; // from gpuMs when known, else from wallMs
+};
+
+struct PipelineStats {
+  double createMs = 0.0;   // vkCreateComputePipelines of the trace pipeline
+  bool warmCache = false;  // a pipeline-cache file for this device and driver was loaded
+  std::filesystem::path cacheFile;
+  bool cacheSaved = false;
+  std::string cacheError;  // why the cache could not be saved, when it could not
+};
+
+class VulkanTracer {
+ public:
+  // Creates the context (device choice, validation) and the trace pipeline through the disk cache.
+  // Throws vs::Error(Runtime) when no usable Vulkan device exists (see VulkanContext).
+  explicit VulkanTracer(const VulkanOptions& options = {});
+  ~VulkanTracer();
+  VulkanTracer(const VulkanTracer&) = delete;
+  VulkanTracer& operator=(const VulkanTracer&) = delete;
+
+  // Copies the scene to the device through a staging buffer. Arrays whose size is unchanged reuse their
+  // buffers. Throws vs::Error(Runtime) naming the limit when an array needs more than kMaxBuffersPerArray
+  // bindings of the binding limit, an unsplit array exceeds maxStorageBufferRange, or the whole scene
+  // exceeds the device-local heap. Preconditions: the arrays are consistent (as SceneData::build makes them).
+  void upload(const SceneData& scene);
+  void upload(const SceneArrays& scene);
+
+  // Traces views[i]'s texel rectangle into layers[i] (layers resized to views.size(); a layer whose size
+  // differs from its view is resized and zero-filled; texels outside the rectangle keep their values).
+  // Preconditions: upload() was called; views[i].info.xy > 0; 0 <= rect.x0 <= rect.x1 <= width, same for y.
+  // Throws vs::Error(BadInput) when a view breaks them.
+  TraceStats trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers);
+
+  const VulkanDeviceInfo& device() const;
+  const PipelineStats& pipelineStats() const;
+  // Buffers holding one split array after upload() (at least 1: an empty array binds a placeholder).
+  int bufferCount(SplitArray array) const;
+  // Validation warnings and errors so far (empty when validation is off or nothing was reported).
+  std::vector<std::string> validationMessages() const;
+  VulkanContext& context();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace vs
+
+#endif

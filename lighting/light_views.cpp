@@ -1,0 +1,119 @@
+// light_views.cpp: view-projection matrices of directional, spot and point light shadow views.
+#include "lighting/light_views.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+namespace vs {
+
+const char* const kCubeFaceNames[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
+
+namespace {
+
+// Rays of spot and point views start at the light (DESIGN.md §2); the near plane only has to be positive for
+// a perspective matrix and far enough from zero to keep the inverse well conditioned.
+constexpr double kNearOverRange = 1e-3;
+
+// Vulkan's framebuffer row 0 is NDC y = -1 (DESIGN.md §9): flipping y puts the light's "up" in row 0, so a
+// layer viewed as an image stands upright.
+const glm::dmat4 kFlipY = glm::scale(glm::dmat4(1.0), glm::dvec3(1.0, -1.0, 1.0));
+
+glm::dvec3 upFor(const glm::dvec3& forward) {
+  return std::abs(forward.y) < 0.99 ? glm::dvec3(0.0, 1.0, 0.0) : glm::dvec3(0.0, 0.0, 1.0);
+}
+
+LightView makeView(const LightDesc& light, int lightIndex, const std::string& name, int encoding,
+                   const glm::dmat4& viewProj, float range) {
+  LightView v;
+  v.light = light.name;
+  v.name = name;
+  v.lightIndex = lightIndex;
+  v.resolution = light.shadow->resolution;
+  v.encoding = encoding;
+  v.depthPoint = light.shadow->depthPoint;
+  v.range = range;
+  v.position = encoding == gpu::VS_ENCODING_LINEAR_DISTANCE ? light.position : glm::vec3(0.0f);
+  v.viewProj = glm::mat4(viewProj);
+  v.trace.viewProj = v.viewProj;
+  v.trace.invViewProj = glm::mat4(glm::inverse(viewProj));
+  v.trace.origin = glm::vec4(v.position, range);
+  v.trace.rect = glm::ivec4(0, 0, v.resolution, v.resolution);
+  v.trace.info = glm::ivec4(v.resolution, v.resolution, encoding, v.depthPoint);
+  return v;
+}
+
+glm::dmat4 directionalViewProj(const glm::dvec3& forward, const Aabb& worldBounds) {
+  glm::dvec3 lo(-0.5), hi(0.5);
+  if (!worldBounds.empty()) {
+    lo = glm::dvec3(worldBounds.min);
+    hi = glm::dvec3(worldBounds.max);
+  }
+  glm::dvec3 center = (lo + hi) * 0.5;
+  glm::dmat4 view = glm::lookAtRH(center, center + forward, upFor(forward));
+  glm::dvec3 vmin(std::numeric_limits<double>::infinity()), vmax(-std::numeric_limits<double>::infinity());
+  for (int c = 0; c < 8; ++c) {
+    glm::dvec3 corner((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z);
+    glm::dvec3 p = glm::dvec3(view * glm::dvec4(corner, 1.0));
+    vmin = glm::min(vmin, p);
+    vmax = glm::max(vmax, p);
+  }
+  // A margin relative to the scene's size keeps casters on the bounds strictly inside the view after float
+  // rounding; a scene shrunk to a point still gets a non-degenerate box.
+  double size = std::max(glm::length(hi - lo), glm::length(center));
+  double pad = 1e-3 * (size > 0.0 ? size : 1.0);
+  // The view looks down -z: the distance along the light is -z.
+  double nearDist = -vmax.z - pad, farDist = -vmin.z + pad;
+  glm::dmat4 proj = glm::orthoRH_ZO(vmin.x - pad, vmax.x + pad, vmin.y - pad, vmax.y + pad, nearDist, farDist);
+  return kFlipY * proj * view;
+}
+
+}  // namespace
+
+std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& worldBounds) {
+  std::vector<LightView> views;
+  for (std::size_t li = 0; li < scene.lights.size(); ++li) {
+    const LightDesc& light = scene.lights[li];
+    if (!light.shadow) continue;
+    const int index = int(li);
+    const glm::dvec3 position(light.position);
+    const double range = light.range;
+    switch (light.type) {
+      case LightType::Directional: {
+        glm::dvec3 forward = glm::normalize(glm::dvec3(light.direction));
+        views.push_back(makeView(light, index, light.name, gpu::VS_ENCODING_NDC_DEPTH,
+                                 directionalViewProj(forward, worldBounds), 1.0f));
+        break;
+      }
+      case LightType::Spot: {
+        glm::dvec3 forward = glm::normalize(glm::dvec3(light.direction));
+        glm::dmat4 view = glm::lookAtRH(position, position + forward, upFor(forward));
+        // fov 2 * outer: the cone is inscribed in the square frustum.
+        glm::dmat4 proj = glm::perspectiveRH_ZO(glm::radians(2.0 * double(light.outerConeDeg)), 1.0,
+                                                range * kNearOverRange, range);
+        views.push_back(makeView(light, index, light.name, gpu::VS_ENCODING_LINEAR_DISTANCE, kFlipY * proj * view,
+                                 light.range));
+        break;
+      }
+      case LightType::Point: {
+        // GPU cube-map layout (Vulkan spec, cube map face selection): face +x maps s to -z and t to -y, and so
+        // on. With column = s * width and row = t * height, NDC x must grow along `sAxis` and NDC y along
+        // `tAxis`; lookAt with up = tAxis gives exactly that (its right axis is forward x up = sAxis).
+        static const glm::dvec3 kForward[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+        static const glm::dvec3 kTAxis[6] = {{0, -1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, {0, -1, 0}, {0, -1, 0}};
+        glm::dmat4 proj = glm::perspectiveRH_ZO(glm::radians(90.0), 1.0, range * kNearOverRange, range);
+        for (int f = 0; f < 6; ++f) {
+          glm::dmat4 view = glm::lookAtRH(position, position + kForward[f], kTAxis[f]);
+          views.push_back(makeView(light, index, light.name + ".face" + kCubeFaceNames[f],
+                                   gpu::VS_ENCODING_LINEAR_DISTANCE, proj * view, light.range));
+        }
+        break;
+      }
+    }
+  }
+  return views;
+}
+
+}  // namespace vs

@@ -1,0 +1,42 @@
+// light_views.h: the shadow views of a scene's lights (DESIGN.md §2, §7, §9): one trace layer each.
+#ifndef VOXSHADOW_LIGHT_VIEWS_H
+#define VOXSHADOW_LIGHT_VIEWS_H
+
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "bvh/bvh.h"
+#include "compute/shared/trace_view.h"
+#include "lighting/scene_file.h"
+
+namespace vs {
+
+struct LightView {
+  std::string light;    // the light's name
+  std::string name;     // the layer's name: "<light>" or "<light>.face<+x|-x|+y|-y|+z|-z>"
+  int lightIndex = 0;   // into SceneDesc::lights
+  int resolution = 0;   // width = height, texels
+  int encoding = 0;     // VS_ENCODING_NDC_DEPTH (directional) or VS_ENCODING_LINEAR_DISTANCE (spot, point)
+  int depthPoint = 0;   // VS_DEPTH_POINT_*
+  float range = 1.0f;   // the miss value: 1 for NDC depth views, the light's range for linear distance views
+  glm::vec3 position{0.0f};  // spot and point: where rays start
+  glm::mat4 viewProj{1.0f};  // world -> Vulkan clip space; texel column (ndc.x*0.5+0.5)*w, row (ndc.y*0.5+0.5)*h
+  gpu::TraceView trace{};    // the record the trace kernels read (the whole view as its rectangle)
+};
+
+// Builds every shadowed light's views, in light order (a light without `shadow` gives none):
+// directional: one orthographic view fitted to worldBounds, its near plane before every caster and far plane
+// after the last; spot: a perspective view of fov 2 * outer cone; point: six 90-degree cube faces laid out as
+// GPU cube maps sample them (+x, -x, +y, -y, +z, -z). Preconditions: `scene` as parseSceneJson returns it
+// (normalised directions, valid ranges). worldBounds may be empty (a scene without voxels): the directional
+// view then covers a unit box at the origin so its matrices stay finite.
+std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& worldBounds);
+
+// The cube face names in layer order: "+x", "-x", "+y", "-y", "+z", "-z".
+extern const char* const kCubeFaceNames[6];
+
+}  // namespace vs
+
+#endif

@@ -1,0 +1,455 @@
+// scene_file.cpp: strict parser of the JSON scene file, version 1 (DESIGN.md §8).
+#include "lighting/scene_file.h"
+
+#include <cmath>
+#include <fstream>
+#include <initializer_list>
+#include <map>
+#include <sstream>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <nlohmann/json.hpp>
+
+#include "compute/shared/trace_view.h"
+#include "voxel/error.h"
+
+namespace vs {
+
+const char* lightTypeName(LightType type) {
+  switch (type) {
+    case LightType::Directional: return "directional";
+    case LightType::Spot: return "spot";
+    case LightType::Point: return "point";
+  }
+  return "?";
+}
+
+const char* shadowFilterName(ShadowFilter filter) {
+  switch (filter) {
+    case ShadowFilter::Hard: return "hard";
+    case ShadowFilter::Pcf3: return "pcf3";
+    case ShadowFilter::Pcf5: return "pcf5";
+    case ShadowFilter::Poisson16: return "poisson16";
+    case ShadowFilter::Pcss: return "pcss";
+  }
+  return "?";
+}
+
+namespace {
+
+// ordered_json keeps the file's key order, so assets are indexed (and errors reported) in file order.
+using Json = nlohmann::ordered_json;
+
+constexpr const char* kRoot = "(top level)";
+
+std::string typeName(const Json& j) {
+  if (j.is_null()) return "null";
+  if (j.is_boolean()) return "a boolean";
+  if (j.is_number()) return "a number";
+  if (j.is_string()) return "a string";
+  if (j.is_array()) return "an array";
+  return "an object";
+}
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+class Parser {
+ public:
+  Parser(const std::filesystem::path& file) : file_(file) {}
+
+  [[noreturn]] void fail(const std::string& path, const std::string& what) const {
+    throwBadInput(file_.string() + ": " + (path.empty() ? kRoot : path) + ": " + what);
+  }
+
+  static std::string key(const std::string& path, const std::string& k) { return path.empty() ? k : path + "." + k; }
+  static std::string index(const std::string& path, std::size_t i) { return path + "[" + std::to_string(i) + "]"; }
+
+  void requireObject(const Json& j, const std::string& path) const {
+    if (!j.is_object()) fail(path, "must be an object, not " + typeName(j));
+  }
+
+  void checkKeys(const Json& j, const std::string& path, std::initializer_list<const char*> allowed,
+                 const std::string& context = "") const {
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      bool known = false;
+      for (const char* a : allowed) known = known || it.key() == a;
+      if (!known) {
+        std::string expected;
+        for (const char* a : allowed) expected += std::string(expected.empty() ? "" : ", ") + a;
+        fail(key(path, it.key()), "unknown key" + context + " (expected one of: " + expected + ")");
+      }
+    }
+  }
+
+  const Json& required(const Json& obj, const std::string& path, const char* k) const {
+    auto it = obj.find(k);
+    if (it == obj.end()) fail(key(path, k), "missing required key");
+    return *it;
+  }
+
+  double number(const Json& j, const std::string& path) const {
+    if (!j.is_number()) fail(path, "must be a number, not " + typeName(j));
+    double v = j.get<double>();
+    if (!std::isfinite(v)) fail(path, "must be a finite number");
+    return v;
+  }
+
+  float number(const Json& obj, const std::string& path, const char* k, float fallback) const {
+    auto it = obj.find(k);
+    return it == obj.end() ? fallback : float(number(*it, key(path, k)));
+  }
+
+  int integer(const Json& j, const std::string& path) const {
+    double v = number(j, path);
+    if (v != std::floor(v) || std::abs(v) > 2147483647.0) fail(path, "must be an integer, not " + fmt(v));
+    return int(v);
+  }
+
+  std::string string(const Json& j, const std::string& path) const {
+    if (!j.is_string()) fail(path, "must be a string, not " + typeName(j));
+    return j.get<std::string>();
+  }
+
+  glm::dvec3 vec3(const Json& j, const std::string& path) const {
+    if (!j.is_array() || j.size() != 3) fail(path, "must be an array of 3 numbers");
+    return {number(j[0], index(path, 0)), number(j[1], index(path, 1)), number(j[2], index(path, 2))};
+  }
+
+  glm::vec3 vec3(const Json& obj, const std::string& path, const char* k, glm::vec3 fallback) const {
+    auto it = obj.find(k);
+    return it == obj.end() ? fallback : glm::vec3(vec3(*it, key(path, k)));
+  }
+
+  glm::vec3 direction(const Json& j, const std::string& path) const {
+    glm::dvec3 d = vec3(j, path);
+    double len = glm::length(d);
+    if (!(len > 0.0) || !std::isfinite(len)) fail(path, "must be a non-zero vector");
+    return glm::vec3(d / len);
+  }
+
+  glm::vec3 color(const Json& obj, const std::string& path, const char* k, glm::vec3 fallback) const {
+    glm::vec3 c = vec3(obj, path, k, fallback);
+    if (c.x < 0.0f || c.y < 0.0f || c.z < 0.0f) fail(key(path, k), "components must not be negative");
+    return c;
+  }
+
+  float positive(const Json& j, const std::string& path) const {
+    double v = number(j, path);
+    if (!(v > 0.0)) fail(path, "must be greater than 0, not " + fmt(v));
+    return float(v);
+  }
+
+  float nonNegative(const Json& obj, const std::string& path, const char* k, float fallback) const {
+    float v = number(obj, path, k, fallback);
+    if (v < 0.0f) fail(key(path, k), "must not be negative, not " + fmt(v));
+    return v;
+  }
+
+  SceneDesc parse(const std::string& text) {
+    Json root;
+    try {
+      root = Json::parse(text);
+    } catch (const nlohmann::json::parse_error& e) {
+      syntaxError(text, e.byte, e.what());
+    } catch (const nlohmann::json::exception& e) {
+      // Number overflow (1e999) and similar come without a position: find the token to locate it.
+      std::string what = e.what();
+      std::size_t q0 = what.find('\''), q1 = what.rfind('\'');
+      std::size_t at = std::string::npos;
+      if (q0 != std::string::npos && q1 > q0) at = text.find(what.substr(q0 + 1, q1 - q0 - 1));
+      syntaxError(text, at == std::string::npos ? 0 : at + 1, what + " (numbers must be finite)");
+    }
+
+    SceneDesc scene;
+    scene.file = file_;
+    requireObject(root, "");
+    const Json& version = required(root, "", "version");
+    scene.version = integer(version, "version");
+    if (scene.version != 1) fail("version", "unsupported version " + std::to_string(scene.version) + " (this build reads version 1)");
+    checkKeys(root, "", {"version", "assets", "instances", "camera", "ambient", "lights"});
+
+    if (auto it = root.find("assets"); it != root.end()) parseAssets(*it, scene);
+    if (auto it = root.find("instances"); it != root.end()) parseInstances(*it, scene);
+    if (auto it = root.find("camera"); it != root.end()) scene.camera = parseCamera(*it, "camera");
+    if (auto it = root.find("ambient"); it != root.end()) {
+      requireObject(*it, "ambient");
+      checkKeys(*it, "ambient", {"color", "intensity"});
+      scene.ambient.color = color(*it, "ambient", "color", scene.ambient.color);
+      scene.ambient.intensity = nonNegative(*it, "ambient", "intensity", scene.ambient.intensity);
+    }
+    if (auto it = root.find("lights"); it != root.end()) {
+      float defaultMaxDistance = scene.camera ? scene.camera->farPlane : CameraDesc{}.farPlane;
+      parseLights(*it, scene, defaultMaxDistance);
+    }
+    return scene;
+  }
+
+ private:
+  [[noreturn]] void syntaxError(const std::string& text, std::size_t byte, const std::string& what) const {
+    // nlohmann counts bytes from 1 and points just past the offending character.
+    std::size_t end = std::min(byte == 0 ? 0 : byte - 1, text.size());
+    std::size_t line = 1, column = 1;
+    for (std::size_t i = 0; i < end; ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        column = 1;
+      } else {
+        ++column;
+      }
+    }
+    throwBadInput(file_.string() + ": line " + std::to_string(line) + ", column " + std::to_string(column) +
+                  ": invalid JSON: " + what);
+  }
+
+  void parseAssets(const Json& assets, SceneDesc& scene) const {
+    requireObject(assets, "assets");
+    for (auto it = assets.begin(); it != assets.end(); ++it) {
+      std::string path = key("assets", it.key());
+      if (it.key().empty()) fail("assets", "asset names must not be empty");
+      const Json& a = it.value();
+      requireObject(a, path);
+      checkKeys(a, path, {"file", "grid", "density_threshold", "color"});
+      AssetDesc asset;
+      asset.name = it.key();
+      std::string file = string(required(a, path, "file"), key(path, "file"));
+      if (file.empty()) fail(key(path, "file"), "must not be empty");
+      std::filesystem::path resolved = file;
+      if (resolved.is_relative()) resolved = file_.parent_path() / resolved;
+      std::error_code ec;
+      if (!std::filesystem::is_regular_file(resolved, ec)) fail(key(path, "file"), "file not found: " + resolved.string());
+      asset.file = resolved;
+      if (auto g = a.find("grid"); g != a.end()) {
+        if (g->is_string()) {
+          asset.grid = g->get<std::string>();
+          if (asset.grid.empty()) fail(key(path, "grid"), "must not be empty");
+        } else if (g->is_number()) {
+          int gi = integer(*g, key(path, "grid"));
+          if (gi < 0) fail(key(path, "grid"), "a grid index must not be negative");
+          asset.grid = std::to_string(gi);
+        } else {
+          fail(key(path, "grid"), "must be a grid name (string) or index (integer), not " + typeName(*g));
+        }
+      }
+      asset.densityThreshold = number(a, path, "density_threshold", asset.densityThreshold);
+      asset.color = color(a, path, "color", asset.color);
+      scene.assets.push_back(std::move(asset));
+    }
+  }
+
+  void parseInstances(const Json& instances, SceneDesc& scene) const {
+    if (!instances.is_array()) fail("instances", "must be an array, not " + typeName(instances));
+    for (std::size_t i = 0; i < instances.size(); ++i) {
+      std::string path = index("instances", i);
+      const Json& inst = instances[i];
+      requireObject(inst, path);
+      checkKeys(inst, path, {"asset", "matrix", "translate", "rotate_deg", "scale"});
+      InstanceDesc desc;
+      desc.asset = string(required(inst, path, "asset"), key(path, "asset"));
+      bool found = false;
+      for (std::size_t a = 0; a < scene.assets.size() && !found; ++a) {
+        if (scene.assets[a].name == desc.asset) {
+          desc.assetIndex = a;
+          found = true;
+        }
+      }
+      if (!found) fail(key(path, "asset"), "unknown asset \"" + desc.asset + "\" (not defined under \"assets\")");
+
+      if (auto m = inst.find("matrix"); m != inst.end()) {
+        for (const char* k : {"translate", "rotate_deg", "scale"})
+          if (inst.contains(k)) fail(key(path, k), "cannot be combined with \"matrix\"");
+        std::string mp = key(path, "matrix");
+        if (!m->is_array() || m->size() != 16) fail(mp, "must be an array of 16 numbers (column-major)");
+        for (int c = 0; c < 4; ++c)
+          for (int r = 0; r < 4; ++r) desc.transform[c][r] = number((*m)[c * 4 + r], index(mp, c * 4 + r));
+        if (desc.transform[0][3] != 0.0 || desc.transform[1][3] != 0.0 || desc.transform[2][3] != 0.0 ||
+            desc.transform[3][3] != 1.0)
+          fail(mp, "must be affine: elements 3, 7, 11, 15 (the last row) must be 0, 0, 0, 1");
+        checkInvertible(desc.transform, mp);
+      } else {
+        glm::dvec3 t(0.0), r(0.0), s(1.0);
+        if (auto it = inst.find("translate"); it != inst.end()) t = vec3(*it, key(path, "translate"));
+        if (auto it = inst.find("rotate_deg"); it != inst.end()) r = vec3(*it, key(path, "rotate_deg"));
+        if (auto it = inst.find("scale"); it != inst.end()) {
+          if (it->is_number()) s = glm::dvec3(number(*it, key(path, "scale")));
+          else if (it->is_array()) s = vec3(*it, key(path, "scale"));
+          else fail(key(path, "scale"), "must be a number or an array of 3 numbers, not " + typeName(*it));
+        }
+        glm::dmat4 tr = glm::translate(glm::dmat4(1.0), t);
+        tr = glm::rotate(tr, glm::radians(r.z), glm::dvec3(0, 0, 1));
+        tr = glm::rotate(tr, glm::radians(r.y), glm::dvec3(0, 1, 0));
+        tr = glm::rotate(tr, glm::radians(r.x), glm::dvec3(1, 0, 0));
+        tr = glm::scale(tr, s);
+        desc.transform = tr;
+        checkInvertible(desc.transform, inst.contains("scale") ? key(path, "scale") : path);
+      }
+      scene.instances.push_back(desc);
+    }
+  }
+
+  void checkInvertible(const glm::dmat4& m, const std::string& path) const {
+    glm::dmat3 l(m);
+    double det = glm::determinant(l);
+    // Relative to the column lengths, so a tiny but well-shaped scale stays valid while a collapsed axis does not.
+    double scale = glm::length(l[0]) * glm::length(l[1]) * glm::length(l[2]);
+    if (!std::isfinite(det) || !(std::abs(det) > 1e-12 * scale)) fail(path, "transform is singular (not invertible)");
+  }
+
+  CameraDesc parseCamera(const Json& cam, const std::string& path) const {
+    requireObject(cam, path);
+    checkKeys(cam, path, {"position", "target", "up", "fov_deg", "near", "far", "width", "height"});
+    CameraDesc c;
+    c.position = glm::vec3(vec3(required(cam, path, "position"), key(path, "position")));
+    c.target = glm::vec3(vec3(required(cam, path, "target"), key(path, "target")));
+    if (c.position == c.target) fail(key(path, "target"), "must differ from position");
+    if (auto it = cam.find("up"); it != cam.end()) c.up = direction(*it, key(path, "up"));
+    if (glm::length(glm::cross(glm::normalize(c.target - c.position), c.up)) < 1e-6f)
+      fail(key(path, "up"), "must not be parallel to the view direction");
+    if (auto it = cam.find("fov_deg"); it != cam.end()) {
+      c.fovDeg = float(number(*it, key(path, "fov_deg")));
+      if (!(c.fovDeg > 0.0f && c.fovDeg < 180.0f)) fail(key(path, "fov_deg"), "must be between 0 and 180 (exclusive), not " + fmt(c.fovDeg));
+    }
+    if (auto it = cam.find("near"); it != cam.end()) c.nearPlane = positive(*it, key(path, "near"));
+    if (auto it = cam.find("far"); it != cam.end()) c.farPlane = positive(*it, key(path, "far"));
+    if (!(c.farPlane > c.nearPlane)) fail(key(path, "far"), "must be greater than near");
+    if (auto it = cam.find("width"); it != cam.end()) c.width = positiveInt(*it, key(path, "width"));
+    if (auto it = cam.find("height"); it != cam.end()) c.height = positiveInt(*it, key(path, "height"));
+    return c;
+  }
+
+  int positiveInt(const Json& j, const std::string& path) const {
+    int v = integer(j, path);
+    if (v <= 0) fail(path, "must be greater than 0, not " + std::to_string(v));
+    return v;
+  }
+
+  void parseLights(const Json& lights, SceneDesc& scene, float defaultMaxDistance) const {
+    if (!lights.is_array()) fail("lights", "must be an array, not " + typeName(lights));
+    std::map<std::string, std::size_t> names;
+    for (std::size_t i = 0; i < lights.size(); ++i) {
+      std::string path = index("lights", i);
+      const Json& lj = lights[i];
+      requireObject(lj, path);
+      LightDesc light;
+      std::string type = string(required(lj, path, "type"), key(path, "type"));
+      if (type == "directional") {
+        light.type = LightType::Directional;
+        checkKeys(lj, path, {"name", "type", "direction", "color", "intensity", "shadow"}, " for a directional light");
+      } else if (type == "spot") {
+        light.type = LightType::Spot;
+        checkKeys(lj, path, {"name", "type", "position", "direction", "range", "inner_cone_deg", "outer_cone_deg",
+                             "color", "intensity", "shadow"}, " for a spot light");
+      } else if (type == "point") {
+        light.type = LightType::Point;
+        checkKeys(lj, path, {"name", "type", "position", "range", "color", "intensity", "shadow"}, " for a point light");
+      } else {
+        fail(key(path, "type"), "unknown light type \"" + type + "\" (expected directional, spot or point)");
+      }
+
+      light.name = "light" + std::to_string(i);
+      if (auto it = lj.find("name"); it != lj.end()) {
+        light.name = string(*it, key(path, "name"));
+        if (light.name.empty()) fail(key(path, "name"), "must not be empty");
+      }
+      if (auto [prev, inserted] = names.emplace(light.name, i); !inserted)
+        fail(key(path, "name"), "duplicate light name \"" + light.name + "\" (also lights[" + std::to_string(prev->second) + "])");
+
+      if (light.type != LightType::Point)
+        light.direction = direction(required(lj, path, "direction"), key(path, "direction"));
+      if (light.type != LightType::Directional) {
+        light.position = glm::vec3(vec3(required(lj, path, "position"), key(path, "position")));
+        light.range = positive(required(lj, path, "range"), key(path, "range"));
+      }
+      if (light.type == LightType::Spot) {
+        std::string op = key(path, "outer_cone_deg");
+        light.outerConeDeg = float(number(required(lj, path, "outer_cone_deg"), op));
+        if (!(light.outerConeDeg > 0.0f && light.outerConeDeg < 90.0f))
+          fail(op, "must be greater than 0 and less than 90, not " + fmt(light.outerConeDeg));
+        light.innerConeDeg = 0.8f * light.outerConeDeg;
+        if (auto it = lj.find("inner_cone_deg"); it != lj.end()) {
+          std::string ip = key(path, "inner_cone_deg");
+          light.innerConeDeg = float(number(*it, ip));
+          if (light.innerConeDeg < 0.0f) fail(ip, "must not be negative, not " + fmt(light.innerConeDeg));
+          if (light.innerConeDeg > light.outerConeDeg)
+            fail(ip, "must not exceed outer_cone_deg (" + fmt(light.outerConeDeg) + "), not " + fmt(light.innerConeDeg));
+        }
+      }
+      light.color = color(lj, path, "color", light.color);
+      light.intensity = nonNegative(lj, path, "intensity", light.intensity);
+      if (auto it = lj.find("shadow"); it != lj.end())
+        light.shadow = parseShadow(*it, key(path, "shadow"), light.type, defaultMaxDistance);
+      scene.lights.push_back(std::move(light));
+    }
+  }
+
+  ShadowDesc parseShadow(const Json& sj, const std::string& path, LightType type, float defaultMaxDistance) const {
+    requireObject(sj, path);
+    checkKeys(sj, path, {"resolution", "cascades", "lambda", "max_distance", "filter", "depth_bias", "normal_bias",
+                         "depth_point"});
+    ShadowDesc s;
+    s.maxDistance = defaultMaxDistance;
+    if (auto it = sj.find("resolution"); it != sj.end()) {
+      std::string rp = key(path, "resolution");
+      if (!it->is_number()) fail(rp, "must be a number, not " + typeName(*it));
+      double v = number(*it, rp);
+      if (v != std::floor(v) || v < 16.0 || v > 16384.0 || (std::int64_t(v) & (std::int64_t(v) - 1)) != 0)
+        fail(rp, "must be a power of two between 16 and 16384");
+      s.resolution = int(v);
+    }
+    if (auto it = sj.find("cascades"); it != sj.end()) {
+      std::string cp = key(path, "cascades");
+      if (type != LightType::Directional)
+        fail(cp, std::string("only directional lights have cascades, this is a ") + lightTypeName(type) + " light");
+      s.cascades = integer(*it, cp);
+      if (s.cascades < 1 || s.cascades > 4) fail(cp, "must be between 1 and 4, not " + std::to_string(s.cascades));
+    }
+    if (auto it = sj.find("lambda"); it != sj.end()) {
+      s.lambda = float(number(*it, key(path, "lambda")));
+      if (s.lambda < 0.0f || s.lambda > 1.0f) fail(key(path, "lambda"), "must be between 0 and 1, not " + fmt(s.lambda));
+    }
+    if (auto it = sj.find("max_distance"); it != sj.end()) s.maxDistance = positive(*it, key(path, "max_distance"));
+    if (auto it = sj.find("filter"); it != sj.end()) {
+      std::string f = string(*it, key(path, "filter"));
+      bool found = false;
+      for (ShadowFilter cand : {ShadowFilter::Hard, ShadowFilter::Pcf3, ShadowFilter::Pcf5, ShadowFilter::Poisson16,
+                                ShadowFilter::Pcss}) {
+        if (f == shadowFilterName(cand)) {
+          s.filter = cand;
+          found = true;
+        }
+      }
+      if (!found) fail(key(path, "filter"), "unknown filter \"" + f + "\" (expected hard, pcf3, pcf5, poisson16 or pcss)");
+    }
+    s.depthBias = number(sj, path, "depth_bias", s.depthBias);
+    s.normalBias = nonNegative(sj, path, "normal_bias", s.normalBias);
+    if (auto it = sj.find("depth_point"); it != sj.end()) {
+      std::string d = string(*it, key(path, "depth_point"));
+      if (d == "entry") s.depthPoint = gpu::VS_DEPTH_POINT_ENTRY;
+      else if (d == "voxel_center") s.depthPoint = gpu::VS_DEPTH_POINT_VOXEL_CENTER;
+      else fail(key(path, "depth_point"), "unknown depth point \"" + d + "\" (expected entry or voxel_center)");
+    }
+    return s;
+  }
+
+  std::filesystem::path file_;
+};
+
+}  // namespace
+
+SceneDesc parseSceneJson(const std::string& text, const std::filesystem::path& file) {
+  return Parser(file).parse(text);
+}
+
+SceneDesc parseSceneFile(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throwBadInput(file.string() + ": cannot open the scene file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throwBadInput(file.string() + ": cannot read the scene file");
+  return parseSceneJson(text.str(), file);
+}
+
+}  // namespace vs

@@ -1,0 +1,98 @@
+// scene_file.h: the JSON scene file, version 1 (DESIGN.md §8), parsed and strictly validated.
+#ifndef VOXSHADOW_SCENE_FILE_H
+#define VOXSHADOW_SCENE_FILE_H
+
+#include <cstddef>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace vs {
+
+struct AssetDesc {
+  std::string name;                 // the key under "assets"
+  std::filesystem::path file;       // resolved against the scene file's directory; exists at parse time
+  std::string grid;                 // name or decimal index as vs::LoadOptions::grid takes it; empty: automatic
+  float densityThreshold = 0.0f;
+  glm::vec3 color{0.8f, 0.8f, 0.8f};
+};
+
+struct InstanceDesc {
+  std::string asset;
+  std::size_t assetIndex = 0;  // into SceneDesc::assets
+  glm::dmat4 transform{1.0};   // object (asset world) -> scene world; affine and invertible
+};
+
+struct CameraDesc {
+  glm::vec3 position{0.0f};
+  glm::vec3 target{0.0f};
+  glm::vec3 up{0.0f, 1.0f, 0.0f};
+  float fovDeg = 60.0f;
+  float nearPlane = 0.1f;
+  float farPlane = 1000.0f;
+  int width = 1280;
+  int height = 720;
+};
+
+struct AmbientDesc {
+  glm::vec3 color{1.0f, 1.0f, 1.0f};
+  float intensity = 0.2f;
+};
+
+enum class LightType { Directional, Spot, Point };
+enum class ShadowFilter { Hard, Pcf3, Pcf5, Poisson16, Pcss };
+
+const char* lightTypeName(LightType type);
+const char* shadowFilterName(ShadowFilter filter);
+
+struct ShadowDesc {
+  int resolution = 1024;    // power of two, 16..16384
+  int cascades = 3;         // 1..4; directional lights only (others keep the default, unused)
+  float lambda = 0.7f;      // split blend: 0 uniform, 1 logarithmic
+  float maxDistance = 1000.0f;  // default: the camera's far plane
+  ShadowFilter filter = ShadowFilter::Pcf3;
+  float depthBias = 0.0f;   // world units
+  float normalBias = 0.5f;  // texels
+  int depthPoint = 0;       // VS_DEPTH_POINT_ENTRY or VS_DEPTH_POINT_VOXEL_CENTER (compute/shared/trace_view.h)
+};
+
+struct LightDesc {
+  std::string name;  // unique in the scene; default "light<i>"
+  LightType type = LightType::Directional;
+  glm::vec3 direction{0.0f, -1.0f, 0.0f};  // normalised; directional and spot: where the light travels
+  glm::vec3 position{0.0f};                // spot and point
+  float range = 0.0f;                      // spot and point: > 0
+  float innerConeDeg = 0.0f;               // spot: 0 <= inner <= outer
+  float outerConeDeg = 0.0f;               // spot: 0 < outer < 90
+  glm::vec3 color{1.0f, 1.0f, 1.0f};
+  float intensity = 1.0f;
+  std::optional<ShadowDesc> shadow;  // absent: the light casts no shadow
+};
+
+struct SceneDesc {
+  std::filesystem::path file;  // the scene file as given
+  int version = 1;
+  std::vector<AssetDesc> assets;  // in file order
+  std::vector<InstanceDesc> instances;
+  std::optional<CameraDesc> camera;
+  AmbientDesc ambient;
+  std::vector<LightDesc> lights;
+};
+
+// Reads and parses a scene file. Preconditions: none; an unreadable file is vs::Error(BadInput), and so is
+// every problem parseSceneJson reports.
+SceneDesc parseSceneFile(const std::filesystem::path& file);
+
+// Parses scene JSON text. `file` names the source in messages ("<file>: <json path>: <problem>") and its
+// directory resolves relative asset paths. Every asset file must exist. Throws vs::Error(BadInput) on the
+// first problem: syntax (with line and column), unknown keys, wrong types, missing required keys, values
+// out of range, non-finite numbers, singular transforms, unknown assets/filters/depth points, duplicate
+// light names, a missing or unsupported version.
+SceneDesc parseSceneJson(const std::string& text, const std::filesystem::path& file);
+
+}  // namespace vs
+
+#endif

@@ -1,0 +1,364 @@
+// Loading .vdb files: solid rules against OpenVDB itself, world mapping, palettes and bad input.
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <glm/gtc/matrix_transform.hpp>
+#include <openvdb/io/File.h>
+#include <openvdb/io/Stream.h>
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/LevelSetSphere.h>
+
+#include "support/test_paths.h"
+#include "voxel/demo_world.h"
+#include "voxel/error.h"
+#include "voxel/vdb_info.h"
+#include "voxel/voxel_object.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// The rule of DESIGN.md §3, evaluated through OpenVDB's accessor: solid? and which material.
+template <class GridT, class Rule>
+void checkAgainstGrid(const GridT& grid, const vs::VoxelObject& obj, Rule rule) {
+  auto acc = grid.getConstAccessor();
+  const vs::Brickmap& bm = obj.brickmap;
+  // Every brickmap voxel satisfies the rule with the right material.
+  std::uint64_t seen = 0;
+  bm.forEachSolid([&](glm::ivec3 v, std::uint8_t m) {
+    int expected = rule(acc, openvdb::Coord(v.x, v.y, v.z));
+    if (expected < 0 || expected != m) {
+      ADD_FAILURE() << obj.file << " grid " << obj.gridIndex << ": brickmap voxel " << v.x << "," << v.y << ","
+                    << v.z << " material " << int(m) << ", rule gives " << expected;
+    }
+    ++seen;
+  });
+  ASSERT_EQ(seen, bm.solidCount());
+  // Every voxel that satisfies the rule is in the brickmap: exhaustive over the tree's bounds when small,
+  // else every active voxel plus random samples.
+  openvdb::CoordBBox box = grid.evalActiveVoxelBoundingBox();
+  if (grid.activeVoxelCount() == 0) return;
+  box.expand(2);
+  auto checkOne = [&](const openvdb::Coord& c) {
+    int expected = rule(acc, c);
+    glm::ivec3 v(c.x(), c.y(), c.z());
+    if ((expected >= 0) != bm.isSolid(v) || (expected >= 0 && expected != bm.material(v))) {
+      ADD_FAILURE() << obj.file << " grid " << obj.gridIndex << ": voxel " << v.x << "," << v.y << "," << v.z
+                    << " rule " << expected << " brickmap " << bm.isSolid(v);
+      return false;
+    }
+    return true;
+  };
+  std::uint64_t solid = 0;
+  if (box.volume() <= 3000000) {
+    for (auto it = box.begin(); it; ++it) {
+      if (!checkOne(*it)) return;
+      solid += rule(acc, *it) >= 0;
+    }
+    EXPECT_EQ(solid, bm.solidCount()) << obj.file;
+  } else {
+    for (auto it = grid.tree().cbeginValueOn(); it; ++it) {
+      if (!it.isVoxelValue()) continue;
+      if (!checkOne(it.getCoord())) return;
+    }
+    std::mt19937 rng(5);
+    for (int i = 0; i < 1000000; ++i) {
+      openvdb::Coord c(box.min().x() + int(rng() % unsigned(box.dim().x())),
+                       box.min().y() + int(rng() % unsigned(box.dim().y())),
+                       box.min().z() + int(rng() % unsigned(box.dim().z())));
+      if (!checkOne(c)) return;
+    }
+  }
+}
+
+void roundTrip(const std::string& file, int index, const openvdb::GridBase::Ptr& grid) {
+  vs::LoadOptions opt;
+  opt.grid = std::to_string(index);
+  vs::VoxelObject obj = vs::loadVdb(file, opt);
+  ASSERT_EQ(obj.gridIndex, index);
+  ASSERT_EQ(obj.gridName, grid->getName());
+  obj.brickmap.checkConsistency();
+  const bool levelSet = grid->getGridClass() == openvdb::GRID_LEVEL_SET;
+  SCOPED_TRACE(file + " grid " + std::to_string(index) + " (" + grid->valueType() + ")");
+  if (auto g = openvdb::gridPtrCast<openvdb::FloatGrid>(grid)) {
+    checkAgainstGrid(*g, obj, [&](auto& acc, const openvdb::Coord& c) {
+      float v = acc.getValue(c);
+      bool s = levelSet ? v < 0.0f : (acc.isValueOn(c) && v > 0.0f);
+      return s ? 1 : -1;
+    });
+  } else if (auto g = openvdb::gridPtrCast<openvdb::DoubleGrid>(grid)) {
+    checkAgainstGrid(*g, obj, [&](auto& acc, const openvdb::Coord& c) {
+      double v = acc.getValue(c);
+      return (levelSet ? v < 0.0 : (acc.isValueOn(c) && v > 0.0)) ? 1 : -1;
+    });
+  } else if (auto g = openvdb::gridPtrCast<openvdb::BoolGrid>(grid)) {
+    checkAgainstGrid(*g, obj, [](auto& acc, const openvdb::Coord& c) { return acc.isValueOn(c) ? 1 : -1; });
+  } else if (auto g = openvdb::gridPtrCast<openvdb::Int32Grid>(grid)) {
+    checkAgainstGrid(*g, obj, [](auto& acc, const openvdb::Coord& c) {
+      int v = acc.getValue(c);
+      if (!acc.isValueOn(c) || v == 0) return -1;
+      return 1 + (((v - 1) % 255) + 255) % 255;
+    });
+  } else if (auto g = openvdb::gridPtrCast<openvdb::Vec3SGrid>(grid)) {
+    ASSERT_LE(obj.palette.size(), 256u);
+    // Quantisation error is bounded by a fraction of the colours' extent (255 boxes over 3 channels).
+    openvdb::Vec3f lo(1e30f), hi(-1e30f);
+    for (auto it = g->cbeginValueOn(); it; ++it) {
+      lo = openvdb::math::minComponent(lo, *it);
+      hi = openvdb::math::maxComponent(hi, *it);
+    }
+    const float tol = 0.15f * std::max({hi.x() - lo.x(), hi.y() - lo.y(), hi.z() - lo.z(), 1e-6f});
+    checkAgainstGrid(*g, obj, [&](auto& acc, const openvdb::Coord& c) {
+      if (!acc.isValueOn(c)) return -1;
+      // With few colours the palette is exact: find the entry of this colour.
+      openvdb::Vec3f col = acc.getValue(c);
+      for (std::size_t i = 1; i < obj.palette.size(); ++i)
+        if (obj.palette[i] == glm::vec3(col.x(), col.y(), col.z())) return int(i);
+      // Quantised palette: the brickmap's entry must lie close to the voxel's colour.
+      int got = obj.brickmap.material(glm::ivec3(c.x(), c.y(), c.z()));
+      if (got < 1 || std::size_t(got) >= obj.palette.size()) return -2;
+      float err = glm::length(obj.palette[std::size_t(got)] - glm::vec3(col.x(), col.y(), col.z()));
+      if (err > tol) ADD_FAILURE() << "colour " << col << " entry " << got << " error " << err;
+      return err <= tol ? got : -2;
+    });
+  } else {
+    FAIL() << "grid type without a reference rule in this test";
+  }
+}
+
+void roundTripFile(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  openvdb::io::Stream stream(in);  // file order, as the loader counts grids
+  auto grids = stream.getGrids();
+  ASSERT_FALSE(grids->empty()) << file;
+  for (std::size_t i = 0; i < grids->size(); ++i) roundTrip(file, int(i), (*grids)[i]);
+}
+
+TEST(VdbLoad, ThirdPartyAssetsRoundTrip) {
+  openvdb::initialize();
+  int files = 0;
+  for (const auto& e : fs::directory_iterator(vs::test::sharedAssets() / "vdb")) {
+    if (e.path().extension() != ".vdb") continue;
+    roundTripFile(e.path().string());
+    ++files;
+  }
+  EXPECT_GE(files, 7);
+}
+
+TEST(VdbLoad, DemoWorldRoundTrip) {
+  openvdb::initialize();
+  auto dir = vs::test::scratchDir("voxel_demo_world");
+  auto written = vs::writeDemoWorld(dir);
+  ASSERT_GE(written.size(), 5u);
+  EXPECT_EQ(fs::path(written.back()).filename(), "demo.json");
+  std::ifstream scene(written.back());
+  std::string text((std::istreambuf_iterator<char>(scene)), std::istreambuf_iterator<char>());
+  for (const char* k : {"\"version\": 1", "directional", "spot", "point", "rotate_deg", "scale", "camera", "ambient"})
+    EXPECT_NE(text.find(k), std::string::npos) << k;
+  std::uint64_t total = 0;
+  for (std::size_t i = 0; i + 1 < written.size(); ++i) {
+    roundTripFile(written[i]);
+    total += vs::loadVdb(written[i]).brickmap.solidCount();
+  }
+  EXPECT_LT(total, 2000000u);
+  // The blob is a level set: solid at its centre (index (0, 12, 0): centre (0, 6, 0) at voxel size 0.5).
+  vs::VoxelObject blob = vs::loadVdb((dir / "blob.vdb").string());
+  EXPECT_EQ(blob.gridClass, "level set");
+  EXPECT_TRUE(blob.brickmap.isSolid(glm::ivec3(0, 12, 0)));
+}
+
+TEST(VdbLoad, LevelSetInteriorIsFilled) {
+  openvdb::initialize();
+  vs::VoxelObject ls = vs::loadVdb((vs::test::sharedAssets() / "vdb" / "gaffer_levelset_sphere.vdb").string());
+  EXPECT_EQ(ls.gridClass, "level set");
+  vs::VoxelBox b = ls.brickmap.bounds();
+  ASSERT_FALSE(b.empty());
+  glm::ivec3 centre = (b.min + b.max) / 2;
+  EXPECT_TRUE(ls.brickmap.isSolid(centre));
+  // Far more voxels than the narrow band's interior half: the inside is filled.
+  auto file = vs::test::scratchDir("voxel_ls") / "sphere.vdb";
+  auto sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(20.0f, openvdb::Vec3f(1, 2, 3), 1.0f);
+  openvdb::io::File(file.string()).write({sphere});
+  vs::VoxelObject gen = vs::loadVdb(file.string());
+  EXPECT_TRUE(gen.brickmap.isSolid(glm::ivec3(1, 2, 3)));
+  double volume = 4.0 / 3.0 * 3.14159265 * 20 * 20 * 20;
+  EXPECT_NEAR(double(gen.brickmap.solidCount()), volume, volume * 0.05);
+}
+
+void checkMapping(const openvdb::math::Transform::Ptr& t, const std::string& name) {
+  auto grid = openvdb::BoolGrid::create(false);
+  grid->setTransform(t);
+  grid->setName("mask");
+  std::vector<openvdb::Coord> coords{{0, 0, 0}, {3, -7, 11}, {-40, 25, 9}};
+  for (auto c : coords) grid->tree().setValueOn(c, true);
+  auto file = vs::test::scratchDir("voxel_map_" + name) / "m.vdb";
+  openvdb::io::File(file.string()).write({grid});
+  vs::VoxelObject obj = vs::loadVdb(file.string());
+  for (auto c : coords) {
+    glm::ivec3 v(c.x(), c.y(), c.z());
+    ASSERT_TRUE(obj.brickmap.isSolid(v));
+    for (int corner = 0; corner < 8; ++corner) {
+      glm::dvec3 off(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+      glm::dvec4 w = obj.brickToObject * glm::dvec4(glm::dvec3(v) + off, 1.0);
+      openvdb::Vec3d ref = t->indexToWorld(openvdb::Vec3d(c.x() - 0.5 + off.x, c.y() - 0.5 + off.y, c.z() - 0.5 + off.z));
+      for (int a = 0; a < 3; ++a) EXPECT_NEAR(w[a], ref[a], 1e-9) << name << " corner " << corner;
+    }
+  }
+}
+
+TEST(VdbLoad, WorldMappingMatchesOpenVdb) {
+  openvdb::initialize();
+  checkMapping(openvdb::math::Transform::createLinearTransform(0.05), "scale");
+  auto translated = openvdb::math::Transform::createLinearTransform(0.25);
+  translated->postTranslate(openvdb::Vec3d(10.5, -3.25, 7.0));
+  checkMapping(translated, "translate");
+  openvdb::Mat4d m(0.9, 0.2, -0.1, 0.0,   // rotated and sheared, row-vector convention
+                   -0.3, 0.8, 0.25, 0.0,  //
+                   0.1, 0.15, 1.2, 0.0,   //
+                   4.0, -2.0, 1.5, 1.0);
+  checkMapping(openvdb::math::Transform::createLinearTransform(m), "affine");
+}
+
+void expectBadInput(const std::function<void()>& fn, const std::vector<std::string>& mentions) {
+  try {
+    fn();
+    ADD_FAILURE() << "expected vs::Error";
+  } catch (const vs::Error& e) {
+    EXPECT_EQ(e.kind(), vs::ErrorKind::BadInput) << e.what();
+    for (const auto& m : mentions) EXPECT_NE(std::string(e.what()).find(m), std::string::npos) << e.what() << " lacks " << m;
+  }
+}
+
+TEST(VdbLoad, BadInputGivesClearErrors) {
+  auto dir = vs::test::scratchDir("voxel_bad");
+  std::string missing = (dir / "missing.vdb").string();
+  expectBadInput([&] { vs::loadVdb(missing); }, {missing});
+  std::string garbage = (dir / "garbage.vdb").string();
+  std::ofstream(garbage) << "this is not a vdb file at all, just some text that goes on for a while\n";
+  expectBadInput([&] { vs::loadVdb(garbage); }, {garbage});
+  std::string fog = (vs::test::sharedAssets() / "vdb" / "oiio_fog_sphere.vdb").string();
+  vs::LoadOptions named;
+  named.grid = "no_such_grid";
+  expectBadInput([&] { vs::loadVdb(fog, named); }, {fog, "no_such_grid"});
+  vs::LoadOptions index;
+  index.grid = "7";
+  expectBadInput([&] { vs::loadVdb(fog, index); }, {fog, "7", "density"});
+  std::string truncated = (vs::test::sharedAssets() / "vdb" / "damaged" / "truncated.vdb").string();
+  expectBadInput([&] { vs::loadVdb(truncated); }, {truncated});
+  expectBadInput([&] { vs::inspectVdb(truncated); }, {truncated});
+}
+
+TEST(VdbLoad, DamagedFilesNeverCrash) {
+  int handled = 0;
+  for (const auto& e : fs::directory_iterator(vs::test::sharedAssets() / "vdb" / "damaged")) {
+    std::string file = e.path().string();
+    try {
+      vs::VoxelObject obj = vs::loadVdb(file);
+      obj.brickmap.checkConsistency();
+      // Whatever loads is small: the hostile bounds live only in metadata.
+      EXPECT_LT(obj.brickmap.memory().regionTableBytes, 1u << 20) << file;
+      std::printf("%s: loaded, %llu solid voxels\n", e.path().filename().c_str(),
+                  (unsigned long long)obj.brickmap.solidCount());
+    } catch (const vs::Error& err) {
+      EXPECT_EQ(err.kind(), vs::ErrorKind::BadInput);
+      EXPECT_NE(std::string(err.what()).find(file), std::string::npos) << err.what();
+      std::printf("%s: %s\n", e.path().filename().c_str(), err.what());
+    }
+    ++handled;
+  }
+  EXPECT_EQ(handled, 7);
+}
+
+TEST(VdbLoad, IntegerPaletteAndColourGrids) {
+  openvdb::initialize();
+  auto dir = vs::test::scratchDir("voxel_palette");
+  auto ig = openvdb::Int32Grid::create(0);
+  ig->setName("material");
+  ig->tree().setValueOn({0, 0, 0}, 1);
+  ig->tree().setValueOn({1, 0, 0}, 7);
+  ig->tree().setValueOn({2, 0, 0}, 256);  // wraps to 1
+  ig->tree().setValueOn({3, 0, 0}, -1);   // 1 + (-2 mod 255) = 254
+  ig->tree().setValueOn({4, 0, 0}, 0);    // active but 0: empty
+  ig->tree().setValueOff({5, 0, 0}, 9);   // inactive: empty
+  auto cg = openvdb::Vec3SGrid::create();
+  cg->setName("Cd");
+  cg->tree().setValueOn({0, 0, 0}, openvdb::Vec3f(1, 0, 0));
+  cg->tree().setValueOn({0, 1, 0}, openvdb::Vec3f(0, 0.5f, 0));
+  cg->tree().setValueOn({0, 2, 0}, openvdb::Vec3f(1, 0, 0));
+  auto file = (dir / "p.vdb").string();
+  openvdb::io::File(file).write({ig, cg});
+
+  vs::LoadOptions opt;
+  opt.color = glm::vec3(0.1f, 0.2f, 0.3f);
+  vs::VoxelObject first = vs::loadVdb(file, opt);
+  {
+    std::ifstream in(file, std::ios::binary);
+    auto grids = openvdb::io::Stream(in).getGrids();
+    EXPECT_EQ(first.gridName, (*grids)[0]->getName());  // both grids have a rule: the first in file order
+  }
+  EXPECT_FALSE(first.selectionNote.empty());
+  opt.grid = "material";
+  vs::VoxelObject io = vs::loadVdb(file, opt);
+  EXPECT_EQ(io.gridName, "material");
+  ASSERT_EQ(io.palette.size(), 256u);
+  EXPECT_EQ(io.palette[1], opt.color);
+  EXPECT_NE(io.palette[2], io.palette[3]);
+  EXPECT_EQ(io.brickmap.material({0, 0, 0}), 1);
+  EXPECT_EQ(io.brickmap.material({1, 0, 0}), 7);
+  EXPECT_EQ(io.brickmap.material({2, 0, 0}), 1);
+  EXPECT_EQ(io.brickmap.material({3, 0, 0}), 254);
+  EXPECT_FALSE(io.brickmap.isSolid({4, 0, 0}));
+  EXPECT_FALSE(io.brickmap.isSolid({5, 0, 0}));
+  EXPECT_EQ(io.brickmap.solidCount(), 4u);
+
+  opt.grid = "Cd";
+  vs::VoxelObject co = vs::loadVdb(file, opt);
+  EXPECT_TRUE(co.selectionNote.empty());
+  ASSERT_EQ(co.palette.size(), 3u);  // entry 0 + two distinct colours, exact
+  EXPECT_EQ(co.palette[co.brickmap.material({0, 0, 0})], glm::vec3(1, 0, 0));
+  EXPECT_EQ(co.palette[co.brickmap.material({0, 1, 0})], glm::vec3(0, 0.5f, 0));
+  EXPECT_EQ(co.brickmap.material({0, 2, 0}), co.brickmap.material({0, 0, 0}));
+
+  // Many colours are quantised into at most 255 entries, each voxel near its colour.
+  auto many = openvdb::Vec3SGrid::create();
+  for (int i = 0; i < 2000; ++i)
+    many->tree().setValueOn({i % 40, i / 40, 0}, openvdb::Vec3f(float(i % 13) / 12, float(i % 17) / 16, float(i % 7) / 6));
+  auto mfile = (dir / "many.vdb").string();
+  openvdb::io::File(mfile).write({many});
+  vs::VoxelObject mo = vs::loadVdb(mfile);
+  EXPECT_LE(mo.palette.size(), 256u);
+  EXPECT_EQ(mo.brickmap.solidCount(), 2000u);
+  for (int i = 0; i < 2000; ++i) {
+    glm::vec3 want(float(i % 13) / 12, float(i % 17) / 16, float(i % 7) / 6);
+    glm::vec3 got = mo.palette[mo.brickmap.material({i % 40, i / 40, 0})];
+    EXPECT_LT(glm::length(got - want), 0.35f) << i;
+  }
+
+  // inspectVdb lists both grids with their rules and costs.
+  auto infos = vs::inspectVdb(file);
+  ASSERT_EQ(infos.size(), 2u);
+  EXPECT_TRUE(infos[0].hasSolidRule);
+  const auto& intInfo = infos[0].name == "material" ? infos[0] : infos[1];
+  const auto& cdInfo = infos[0].name == "material" ? infos[1] : infos[0];
+  EXPECT_EQ(intInfo.solidVoxelCount, 4u);
+  EXPECT_EQ(intInfo.activeVoxelCount, 5u);
+  EXPECT_EQ(cdInfo.solidVoxelCount, 3u);
+  EXPECT_GT(infos[0].openvdbTreeBytes, 0u);
+  EXPECT_GT(infos[0].bytesPerSolidVoxel, 0.0);
+}
+
+TEST(VdbLoad, NonLinearTransformIsRefused) {
+  openvdb::initialize();
+  auto grid = openvdb::BoolGrid::create(false);
+  grid->setName("frustum_mask");
+  grid->tree().setValueOn({1, 1, 1}, true);
+  openvdb::BBoxd bbox(openvdb::Vec3d(0), openvdb::Vec3d(10));
+  grid->setTransform(openvdb::math::Transform::createFrustumTransform(bbox, 0.5, 2.0, 1.0));
+  auto file = (vs::test::scratchDir("voxel_frustum") / "f.vdb").string();
+  openvdb::io::File(file).write({grid});
+  expectBadInput([&] { vs::loadVdb(file); }, {file, "frustum_mask", "non-linear"});
+}
+
+}  // namespace

@@ -1,0 +1,157 @@
+// voxshadow bake: scene -> light views -> shadow trace -> EXR + sidecar (+ PNG preview).
+#include <chrono>
+#include <cstdio>
+
+#include "compute/cpu/cpu_tracer.h"
+#include "compute/vulkan/vulkan_tracer.h"
+#include "lighting/scene.h"
+#include "tools/atomic_file.h"
+#include "tools/bake_output.h"
+#include "tools/commands.h"
+#include "tools/progress.h"
+#include "voxel/error.h"
+
+namespace vs::cli {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// Rows traced per call, so the progress bar moves within a large view; each call still spans many tiles.
+constexpr int kRowsPerBand = 64;
+
+std::vector<ShadowLayer> traceOnCpu(const Scene& scene, const std::vector<LightView>& views, int threads) {
+  std::uint64_t totalRows = 0, doneRows = 0;
+  for (const LightView& v : views) totalRows += std::uint64_t(v.trace.info.y);
+  Progress progress("tracing");
+  std::vector<ShadowLayer> layers(views.size());
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    gpu::TraceView band = views[i].trace;
+    const glm::ivec4 whole = band.rect;
+    std::vector<ShadowLayer> one(1);
+    for (int y0 = whole.y; y0 < whole.w; y0 += kRowsPerBand) {
+      band.rect = glm::ivec4(whole.x, y0, whole.z, std::min(whole.w, y0 + kRowsPerBand));
+      traceCpu(scene.data(), std::span<const gpu::TraceView>(&band, 1), one, CpuTracePath::Interleaved, threads);
+      doneRows += std::uint64_t(band.rect.w - band.rect.y);
+      progress.update(doneRows, totalRows);
+    }
+    layers[i] = std::move(one[0]);
+  }
+  progress.finish();
+  return layers;
+}
+
+std::vector<ShadowLayer> traceOnVulkan(const Scene& scene, const std::vector<LightView>& views) {
+  VulkanTracer tracer;
+  tracer.upload(scene.data());
+  Progress progress("tracing (" + tracer.device().name + ")");
+  std::vector<ShadowLayer> layers(views.size());
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    std::vector<ShadowLayer> one(1);
+    tracer.trace(std::span<const gpu::TraceView>(&views[i].trace, 1), one);
+    layers[i] = std::move(one[0]);
+    progress.update(i + 1, views.size());
+  }
+  progress.finish();
+  return layers;
+}
+
+std::vector<ShadowLayer> trace(const Scene& scene, const std::vector<LightView>& views, const BakeOptions& options) {
+  if (options.backend == "cpu") return traceOnCpu(scene, views, options.threads);
+  return traceOnVulkan(scene, views);
+}
+
+BakedView toBaked(const LightView& v, ShadowLayer&& layer) {
+  BakedView b;
+  b.light = v.light;
+  b.name = v.name;
+  b.encoding = v.encoding == gpu::VS_ENCODING_LINEAR_DISTANCE ? "linear_distance" : "ndc_depth";
+  b.depthPoint = v.depthPoint == gpu::VS_DEPTH_POINT_VOXEL_CENTER ? "voxel_center" : "entry";
+  b.range = v.range;
+  if (v.encoding == gpu::VS_ENCODING_LINEAR_DISTANCE) b.position = v.position;
+  b.worldToClip = v.viewProj;
+  b.width = layer.width;
+  b.height = layer.height;
+  b.texels = std::move(layer.texels);
+  return b;
+}
+
+}  // namespace
+
+void runBake(const BakeOptions& options) {
+  // Every check of the user's paths comes before the scene is loaded or traced.
+  if (options.output.extension() != ".exr")
+    throwBadInput(options.output.string() + ": the output must be an .exr file");
+  if (options.preview && options.preview->extension() != ".png")
+    throwBadInput(options.preview->string() + ": the preview must be a .png file");
+  if (options.backend != "cpu" && options.backend != "vulkan")
+    throwBadInput("unknown backend '" + options.backend + "' (cpu or vulkan)");
+  checkOutputDirectory(options.output);
+  if (options.preview) checkOutputDirectory(*options.preview);
+
+  auto t0 = Clock::now();
+  Scene scene = Scene::load(options.scene);
+  double loadSeconds = secondsSince(t0);
+  std::vector<LightView> views = scene.lightViews();
+  if (views.empty()) throwBadInput(options.scene.string() + ": lights: no light casts a shadow, nothing to bake");
+
+  auto t1 = Clock::now();
+  std::vector<ShadowLayer> layers = trace(scene, views, options);
+  double traceSeconds = secondsSince(t1);
+
+  std::vector<BakedView> baked;
+  baked.reserve(views.size());
+  std::uint64_t texels = 0;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    texels += layers[i].texels.size();
+    baked.push_back(toBaked(views[i], std::move(layers[i])));
+  }
+  auto t2 = Clock::now();
+  writeShadowExr(options.output, baked);
+  if (options.preview) {
+    try {
+      writeContactSheetPng(*options.preview, baked);
+    } catch (...) {
+      // One bake, one outcome: a failed preview takes the EXR and sidecar with it.
+      std::error_code ignored;
+      std::filesystem::remove(options.output, ignored);
+      std::filesystem::remove(sidecarPath(options.output), ignored);
+      throw;
+    }
+  }
+  double writeSeconds = secondsSince(t2);
+
+  std::printf("baked %zu view%s into %s\n", baked.size(), baked.size() == 1 ? "" : "s", options.output.c_str());
+  for (const BakedView& b : baked)
+    std::printf("  %-24s %5dx%-5d %s, %s\n", b.name.c_str(), b.width, b.height, b.encoding.c_str(),
+                b.depthPoint.c_str());
+  if (options.preview) std::printf("preview: %s\n", options.preview->c_str());
+  if (options.stats) {
+    std::printf("stats: backend %s, threads %d\n", options.backend.c_str(), options.threads);
+    std::printf("  load  %.3f s (%zu objects, %zu instances)\n", loadSeconds, scene.objects().size(),
+                scene.instances().size());
+    std::printf("  trace %.3f s, %llu rays, %.2f Mrays/s\n", traceSeconds, static_cast<unsigned long long>(texels),
+                traceSeconds > 0.0 ? double(texels) / traceSeconds * 1e-6 : 0.0);
+    std::printf("  write %.3f s\n", writeSeconds);
+  }
+}
+
+void registerBake(CLI::App& app) {
+  auto options = std::make_shared<BakeOptions>();
+  CLI::App* sub = app.add_subcommand("bake", "Trace a scene's shadow maps into a multi-layer EXR (+ JSON sidecar)");
+  sub->add_option("SCENE", options->scene, "Scene file (JSON, version 1)")->required();
+  sub->add_option("-o,--output", options->output, "Output .exr (its directory must exist)")->required();
+  sub->add_option("--backend", options->backend, "Trace backend")
+      ->check(CLI::IsMember({"cpu", "vulkan"}))
+      ->capture_default_str();
+  sub->add_option("--preview", options->preview, "Also write a PNG contact sheet of the layers");
+  sub->add_option("--threads", options->threads, "CPU threads (0: all)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  sub->add_flag("--stats", options->stats, "Print timings and ray throughput");
+  sub->callback([options] { runBake(*options); });
+}
+
+}  // namespace vs::cli

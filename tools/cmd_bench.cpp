@@ -1,0 +1,137 @@
+// voxshadow bench: the CPU backend (and the Vulkan backend when asked) against the OpenVDB peer on city512,
+// same rays, same thread count, in one run (DESIGN.md §10).
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "compute/cpu/cpu_tracer.h"
+#include "tools/commands.h"
+#include "tools/peer/openvdb_peer.h"
+#include "voxel/city512.h"
+#include "voxel/error.h"
+
+namespace vs::cli {
+namespace {
+
+struct BenchOptions {
+  int threads = 2;
+  int resolution = 1024;
+  int reps = 5;
+  bool skipPeer = false;
+};
+
+// The calibration window of DESIGN.md §10: an orthographic view along d over the projection of [0,512]^3.
+gpu::TraceView calibrationView(int res) {
+  glm::vec3 d = glm::normalize(glm::vec3(-0.4f, -1.0f, -0.3f));
+  glm::vec3 u = glm::normalize(glm::cross(glm::vec3(0, 0, 1), d));
+  glm::vec3 v = glm::cross(d, u);
+  // (u, -v, -d) is a right-handed camera frame looking along d; rows are flipped relative to v only.
+  glm::vec3 y = -v;
+  float uMin = 1e30f, uMax = -1e30f, yMin = 1e30f, yMax = -1e30f, dMin = 1e30f, dMax = -1e30f;
+  for (int c = 0; c < 8; ++c) {
+    glm::vec3 p((c & 1) ? 512.0f : 0.0f, (c & 2) ? 512.0f : 0.0f, (c & 4) ? 512.0f : 0.0f);
+    uMin = std::min(uMin, glm::dot(p, u)), uMax = std::max(uMax, glm::dot(p, u));
+    yMin = std::min(yMin, glm::dot(p, y)), yMax = std::max(yMax, glm::dot(p, y));
+    dMin = std::min(dMin, glm::dot(p, d)), dMax = std::max(dMax, glm::dot(p, d));
+  }
+  // World -> view: x = u.p, y = y.p, z = -(d.p); view -> clip: orthographic, depth 0 at d.p = dMin.
+  glm::mat4 view(1.0f);
+  for (int i = 0; i < 3; ++i) {
+    view[i][0] = u[i];
+    view[i][1] = y[i];
+    view[i][2] = -d[i];
+  }
+  glm::mat4 proj(1.0f);
+  proj[0][0] = 2.0f / (uMax - uMin);
+  proj[3][0] = -(uMax + uMin) / (uMax - uMin);
+  proj[1][1] = 2.0f / (yMax - yMin);
+  proj[3][1] = -(yMax + yMin) / (yMax - yMin);
+  // z_view = -(d.p); depth = (d.p - dMin) / (dMax - dMin) = (-z_view - dMin) / (dMax - dMin).
+  proj[2][2] = -1.0f / (dMax - dMin);
+  proj[3][2] = -dMin / (dMax - dMin);
+  gpu::TraceView tv{};
+  tv.viewProj = proj * view;
+  tv.invViewProj = glm::inverse(tv.viewProj);
+  tv.rect = glm::ivec4(0, 0, res, res);
+  tv.info = glm::ivec4(res, res, gpu::VS_ENCODING_NDC_DEPTH, gpu::VS_DEPTH_POINT_ENTRY);
+  return tv;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+// Runs fn once to warm up, then `reps` times; returns the median seconds.
+double timeMedian(int reps, const std::function<void()>& fn) {
+  fn();
+  std::vector<double> seconds;
+  for (int i = 0; i < reps; ++i) {
+    auto start = std::chrono::steady_clock::now();
+    fn();
+    seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+  return median(seconds);
+}
+
+void runBench(const BenchOptions& opt) {
+  if (opt.threads < 1 || opt.resolution < 16 || opt.resolution > 16384 || opt.reps < 1) {
+    throwBadInput("bench: --threads >= 1, --resolution in 16..16384 and --reps >= 1 required");
+  }
+  std::printf("city512: generating voxels...\n");
+  auto voxels = city512Voxels();
+  auto start = std::chrono::steady_clock::now();
+  Brickmap brickmap = Brickmap::build(voxels);
+  double buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const Brickmap* objects[] = {&brickmap};
+  SceneInstance instance{0u, glm::dmat4(1.0)};
+  SceneData scene = SceneData::build(objects, std::span<const SceneInstance>(&instance, 1));
+  std::printf("city512: %llu solid voxels, brickmap built in %.2f s, occupancy %.2f MiB\n",
+              static_cast<unsigned long long>(brickmap.solidCount()), buildSeconds,
+              brickmap.memory().occupancyStructureBytes() / 1048576.0);
+
+  gpu::TraceView view = calibrationView(opt.resolution);
+  std::vector<gpu::TraceView> views = {view};
+  const double rays = double(opt.resolution) * opt.resolution;
+
+  std::vector<ShadowLayer> layers;
+  double referenceSeconds =
+      timeMedian(opt.reps, [&] { traceCpu(scene, views, layers, CpuTracePath::Reference, opt.threads); });
+  std::size_t hits = std::count_if(layers[0].texels.begin(), layers[0].texels.end(), [](float t) { return t < 1.0f; });
+  std::printf("rays: %dx%d orthographic along (-0.4,-1,-0.3), %zu texels hit, %d threads, median of %d\n",
+              opt.resolution, opt.resolution, hits, opt.threads, opt.reps);
+  double cpuSeconds =
+      timeMedian(opt.reps, [&] { traceCpu(scene, views, layers, CpuTracePath::Interleaved, opt.threads); });
+  std::printf("%-28s %9.3f s  %8.2f Mrays/s\n", "cpu reference (per ray)", referenceSeconds,
+              rays / referenceSeconds / 1e6);
+  std::printf("%-28s %9.3f s  %8.2f Mrays/s\n", "cpu interleaved tiles", cpuSeconds, rays / cpuSeconds / 1e6);
+  if (opt.skipPeer) return;
+
+  OpenVdbPeer peer(objects, scene);
+  std::vector<std::vector<float>> peerOut;
+  double peerSeconds = timeMedian(opt.reps, [&] { peerOut = peer.traceViews(scene, views, opt.threads); });
+  std::size_t peerHits = std::count_if(peerOut[0].begin(), peerOut[0].end(), [](float t) { return t < 1.0f; });
+  std::printf("%-28s %9.3f s  %8.2f Mrays/s  (%zu texels hit)\n", "openvdb peer (VRI + DDA)", peerSeconds,
+              rays / peerSeconds / 1e6, peerHits);
+  std::printf("ratio cpu reference / peer:   %.2fx\n", peerSeconds / referenceSeconds);
+  std::printf("ratio cpu interleaved / peer: %.2fx\n", peerSeconds / cpuSeconds);
+}
+
+}  // namespace
+
+void registerBench(CLI::App& app) {
+  auto options = std::make_shared<BenchOptions>();
+  CLI::App* cmd = app.add_subcommand("bench", "Trace city512 with each backend and the OpenVDB peer; print Mrays/s");
+  cmd->add_option("--threads", options->threads, "CPU threads for every CPU tracer (default 2)");
+  cmd->add_option("--resolution", options->resolution, "view resolution in texels per side (default 1024)");
+  cmd->add_option("--reps", options->reps, "timed repetitions after a warm-up; the median is reported (default 5)");
+  cmd->add_flag("--no-peer", options->skipPeer, "skip the OpenVDB peer");
+  cmd->callback([options] { runBench(*options); });
+}
+
+}  // namespace vs::cli

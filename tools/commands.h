@@ -1,0 +1,37 @@
+// commands.h: the CLI's subcommands. Each adds itself to the app with its options and a callback that
+// runs the command; callbacks throw vs::Error (or other exceptions) and main() maps them to exit codes.
+#ifndef VOXSHADOW_TOOLS_COMMANDS_H
+#define VOXSHADOW_TOOLS_COMMANDS_H
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace vs::cli {
+
+void registerInfo(CLI::App& app);  // voxshadow info FILE... [--json]
+void registerDemo(CLI::App& app);  // voxshadow demo [--out DIR]
+void registerBake(CLI::App& app);  // voxshadow bake SCENE -o OUT.exr [--backend] [--preview] [--threads] [--stats]
+void registerBench(CLI::App& app); // voxshadow bench [--threads N] [--resolution R] [--reps K] [--vulkan]
+
+struct BakeOptions {
+  std::filesystem::path scene;
+  std::filesystem::path output;                 // must end in .exr
+  std::optional<std::filesystem::path> preview; // must end in .png
+  std::string backend = "vulkan";               // "vulkan" | "cpu" (DESIGN.md §9)
+  int threads = 0;                              // CPU backend: 0 = every hardware thread
+  bool stats = false;
+};
+
+// The bake shared by `bake` and `demo`. Preconditions: none; bad paths or scenes throw vs::Error(BadInput)
+// before any tracing, and a failure leaves no output file.
+void runBake(const BakeOptions& options);
+
+// Prints `info` of one file (.vdb or .json scene) to stdout. Throws vs::Error naming the file.
+void printInfo(const std::filesystem::path& file);
+
+}  // namespace vs::cli
+
+#endif

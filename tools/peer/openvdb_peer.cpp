@@ -1,0 +1,173 @@
+#include "tools/peer/openvdb_peer.h"
+
+#include <mutex>
+
+#include <openvdb/math/DDA.h>
+#include <openvdb/math/Ray.h>
+#include <openvdb/tools/RayIntersector.h>
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "compute/cpu/scene_arrays.h"
+
+namespace vs {
+
+using PeerRay = openvdb::math::Ray<double>;
+using Intersector = openvdb::tools::VolumeRayIntersector<openvdb::BoolGrid, 0, PeerRay>;
+
+struct OpenVdbPeer::Object {
+  openvdb::BoolGrid::Ptr grid;
+  std::unique_ptr<Intersector> master;  // null for an empty grid (the intersector refuses those)
+};
+
+namespace {
+
+std::unique_ptr<OpenVdbPeer::Object> makeObject(openvdb::BoolGrid::Ptr grid) {
+  auto object = std::make_unique<OpenVdbPeer::Object>();
+  object->grid = std::move(grid);
+  if (!object->grid->empty()) object->master = std::make_unique<Intersector>(*object->grid);
+  return object;
+}
+
+void initOpenVdb() {
+  static std::once_flag once;
+  std::call_once(once, [] { openvdb::initialize(); });
+}
+
+}  // namespace
+
+// Per-thread intersector copies: each holds its own accessor caches, so threads never share one.
+struct ThreadState {
+  std::vector<std::unique_ptr<Intersector>> intersectors;
+  std::vector<std::unique_ptr<openvdb::BoolGrid::ConstAccessor>> accessors;
+};
+struct OpenVdbPeer::ThreadStates {
+  tbb::enumerable_thread_specific<ThreadState> states;
+};
+
+OpenVdbPeer::OpenVdbPeer(std::span<const Brickmap* const> brickmaps, const SceneData& scene) {
+  initOpenVdb();
+  for (const Brickmap* bm : brickmaps) {
+    auto grid = openvdb::BoolGrid::create(false);
+    auto acc = grid->getAccessor();
+    bm->forEachSolid([&](glm::ivec3 v, std::uint8_t) { acc.setValueOn(openvdb::Coord(v.x, v.y, v.z), true); });
+    objects_.push_back(makeObject(grid));
+  }
+  threads_ = std::make_unique<ThreadStates>();
+  for (const gpu::InstanceRecord& inst : scene.instances) instances_.push_back({inst.info.x, inst.worldToBrick});
+}
+
+OpenVdbPeer::OpenVdbPeer(openvdb::BoolGrid::Ptr grid) {
+  initOpenVdb();
+  objects_.push_back(makeObject(std::move(grid)));
+  gpu::Affine identity{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
+  instances_.push_back({0u, identity});
+  threads_ = std::make_unique<ThreadStates>();
+}
+
+OpenVdbPeer::~OpenVdbPeer() = default;
+
+namespace {
+
+// First active voxel along the index-space ray within [t0, t1]: the intersector yields the spans of
+// active leaf nodes, and a voxel DDA walks each span.
+bool traceGrid(Intersector& inter, const openvdb::BoolGrid::ConstAccessor& acc, const PeerRay& ray, double& tHit,
+               openvdb::Coord& voxel) {
+  if (!inter.setIndexRay(ray)) return false;
+  double a = 0.0, b = 0.0;
+  while (inter.march(a, b)) {
+    PeerRay span(ray.eye(), ray.dir(), a, b);
+    openvdb::math::DDA<PeerRay, 0> dda(span);
+    do {
+      if (acc.isValueOn(dda.voxel())) {
+        tHit = std::max(dda.time(), ray.t0());
+        voxel = dda.voxel();
+        return true;
+      }
+    } while (dda.step());
+  }
+  return false;
+}
+
+}  // namespace
+
+namespace {
+
+// The brick-space ray of an instance, in float and in the traversal's operation order (vsApplyAffine,
+// vsApplyLinear), so that the peer starts from exactly the traversal's ray.
+glm::vec3 applyAffine(const gpu::Affine& m, const glm::vec3& p, float w) {
+  return glm::vec3(m.row0.x * p.x + m.row0.y * p.y + m.row0.z * p.z + m.row0.w * w,
+                   m.row1.x * p.x + m.row1.y * p.y + m.row1.z * p.z + m.row1.w * w,
+                   m.row2.x * p.x + m.row2.y * p.y + m.row2.z * p.z + m.row2.w * w);
+}
+
+}  // namespace
+
+bool OpenVdbPeer::trace(const glm::vec3& o, const glm::vec3& d, double tMin, double tMax, double& tHit,
+                        std::uint32_t& instance, glm::ivec3& voxel) const {
+  ThreadState& state = threads_->states.local();
+  if (state.intersectors.size() != objects_.size()) {
+    for (const auto& obj : objects_) {
+      state.intersectors.push_back(obj->master ? std::make_unique<Intersector>(*obj->master) : nullptr);
+      state.accessors.push_back(std::make_unique<openvdb::BoolGrid::ConstAccessor>(obj->grid->getConstAccessor()));
+    }
+  }
+  bool hit = false;
+  double best = tMax;
+  for (std::size_t i = 0; i < instances_.size(); ++i) {
+    const Placed& placed = instances_[i];
+    if (!state.intersectors[placed.object]) continue;
+    glm::dvec3 lo(applyAffine(placed.worldToBrick, o, 1.0f));
+    glm::dvec3 ld(applyAffine(placed.worldToBrick, d, 0.0f));
+    PeerRay ray(openvdb::Vec3d(lo.x, lo.y, lo.z), openvdb::Vec3d(ld.x, ld.y, ld.z), tMin, best);
+    double t = 0.0;
+    openvdb::Coord c;
+    if (traceGrid(*state.intersectors[placed.object], *state.accessors[placed.object], ray, t, c) && t <= best) {
+      if (!hit || t < best) {
+        best = t;
+        instance = static_cast<std::uint32_t>(i);
+        voxel = glm::ivec3(c.x(), c.y(), c.z());
+      }
+      hit = true;
+    }
+  }
+  if (hit) tHit = best;
+  return hit;
+}
+
+std::vector<std::vector<float>> OpenVdbPeer::traceViews(const SceneData& scene, std::span<const gpu::TraceView> views,
+                                                        int threads) const {
+  std::vector<std::vector<float>> out(views.size());
+  gpu::SceneArrays arrays(scene);
+  auto run = [&] {
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      const gpu::TraceView& view = views[i];
+      out[i].assign(std::size_t(view.info.x) * view.info.y, 0.0f);
+      tbb::parallel_for(tbb::blocked_range<int>(view.rect.y, view.rect.w), [&](const tbb::blocked_range<int>& rows) {
+        for (int y = rows.begin(); y != rows.end(); ++y) {
+          for (int x = view.rect.x; x < view.rect.z; ++x) {
+            glm::vec3 o(0.0f), d(0.0f);
+            float tMax = 0.0f;
+            arrays.vsViewRay(view, glm::ivec2(x, y), o, d, tMax);
+            double t = tMax;
+            std::uint32_t inst = 0;
+            glm::ivec3 v(0);
+            bool hit = trace(o, d, 0.0, double(tMax), t, inst, v);
+            out[i][std::size_t(y) * view.info.x + x] = hit ? float(t) : tMax;
+          }
+        }
+      });
+    }
+  };
+  if (threads > 0) {
+    tbb::task_arena arena(threads);
+    arena.execute(run);
+  } else {
+    run();
+  }
+  return out;
+}
+
+}  // namespace vs

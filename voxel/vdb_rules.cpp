@@ -1,0 +1,329 @@
+// Solid rules over OpenVDB grids (DESIGN.md §3) and guarded .vdb reading.
+#include "voxel/vdb_rules.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <mutex>
+#include <unordered_map>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <fstream>
+
+#include <openvdb/io/Stream.h>
+
+#include "voxel/error.h"
+
+namespace vs {
+
+void ensureOpenVdbInitialized() {
+  static std::once_flag once;
+  std::call_once(once, [] { openvdb::initialize(); });
+}
+
+namespace {
+// Damaged files put raw bytes into OpenVDB's messages: keep them printable.
+std::string printable(std::string s) {
+  for (char& c : s)
+    if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) > 0x7e) c = '?';
+  return s;
+}
+}  // namespace
+
+openvdb::GridPtrVec readVdbGrids(const std::string& path) {
+  ensureOpenVdbInitialized();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throwBadInput(path + ": no such file");
+  try {
+    // io::Stream reads grids in file order (io::File lists them sorted by name) and fully, with no
+    // delayed loading from a file that may be damaged.
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throwBadInput(path + ": cannot open for reading");
+    openvdb::io::Stream stream(in);
+    openvdb::GridPtrVecPtr grids = stream.getGrids();
+    if (!grids) throwBadInput(path + ": no grids could be read");
+    return *grids;
+  } catch (const vs::Error&) {
+    throw;
+  } catch (const openvdb::Exception& e) {
+    throwBadInput(path + ": not a readable VDB file (" + printable(e.what()) + ")");
+  } catch (const std::bad_alloc&) {
+    throwBadInput(path + ": damaged VDB file (asks for more memory than is available)");
+  } catch (const std::exception& e) {
+    throwBadInput(path + ": not a readable VDB file (" + printable(e.what()) + ")");
+  }
+}
+
+namespace {
+
+bool isLevelSet(const openvdb::GridBase& g) { return g.getGridClass() == openvdb::GRID_LEVEL_SET; }
+
+std::string gridLabel(const openvdb::GridBase& g) { return "grid '" + g.getName() + "'"; }
+
+// Visits every voxel (tiles expanded) of the grid's values that `pred` accepts; `allValues` includes inactive
+// values (the level-set interior). fn(coord, value).
+template <class GridT, class Pred, class Fn>
+void visitValues(const GridT& grid, bool allValues, Pred&& pred, Fn&& fn) {
+  auto run = [&](auto it) {
+    for (; it; ++it) {
+      auto value = *it;
+      if (!pred(value)) continue;
+      if (it.isVoxelValue()) {
+        fn(it.getCoord(), value);
+      } else {
+        openvdb::CoordBBox box = it.getBoundingBox();
+        for (int z = box.min().z(); z <= box.max().z(); ++z)
+          for (int y = box.min().y(); y <= box.max().y(); ++y)
+            for (int x = box.min().x(); x <= box.max().x(); ++x) fn(openvdb::Coord(x, y, z), value);
+      }
+    }
+  };
+  if (allValues) run(grid.tree().cbeginValueAll());
+  else run(grid.tree().cbeginValueOn());
+}
+
+// Counts accepted voxels (tiles by volume) and their bounds, so that nothing is allocated for a grid whose
+// solid set is absurdly large.
+template <class GridT, class Pred>
+void guardSize(const GridT& grid, bool allValues, Pred&& pred, const std::string& file) {
+  std::uint64_t count = 0;
+  openvdb::CoordBBox bounds;
+  auto run = [&](auto it) {
+    for (; it; ++it) {
+      if (!pred(*it)) continue;
+      openvdb::CoordBBox box = it.isVoxelValue() ? openvdb::CoordBBox(it.getCoord(), it.getCoord()) : it.getBoundingBox();
+      count += box.volume();
+      bounds.expand(box);
+      if (count > kMaxLoadVoxels) {
+        throwBadInput(file + ": " + gridLabel(grid) + " has more than " + std::to_string(kMaxLoadVoxels) +
+                      " solid voxels, more than the loader accepts");
+      }
+    }
+  };
+  if (allValues) run(grid.tree().cbeginValueAll());
+  else run(grid.tree().cbeginValueOn());
+  if (count == 0) return;
+  for (int a = 0; a < 3; ++a) {
+    std::int64_t regions = (std::int64_t(bounds.max()[a]) >> 7) - (std::int64_t(bounds.min()[a]) >> 7) + 1;
+    if (regions > std::int64_t(Brickmap::kMaxRegionSlots)) {
+      throwBadInput(file + ": " + gridLabel(grid) + " has index bounds too large for a brickmap");
+    }
+  }
+}
+
+template <class GridT, class Pred, class MatFn>
+std::vector<SolidVoxel> collect(const GridT& grid, bool allValues, Pred pred, MatFn mat, const std::string& file) {
+  guardSize(grid, allValues, pred, file);
+  std::vector<SolidVoxel> out;
+  visitValues(grid, allValues, pred, [&](const openvdb::Coord& c, const auto& value) {
+    out.push_back({glm::ivec3(c.x(), c.y(), c.z()), mat(value)});
+  });
+  return out;
+}
+
+struct ColourKey {
+  float r, g, b;
+  bool operator==(const ColourKey& o) const { return std::memcmp(this, &o, sizeof o) == 0; }
+};
+struct ColourHash {
+  std::size_t operator()(const ColourKey& k) const {
+    std::uint32_t w[3];
+    std::memcpy(w, &k, sizeof w);
+    return std::size_t(w[0]) * 73856093u ^ std::size_t(w[1]) * 19349663u ^ std::size_t(w[2]) * 83492791u;
+  }
+};
+
+// Palette of at most 255 colours: exact when there are that few distinct colours, else median cut over the
+// distinct colours weighted by their voxel counts. Assigns every voxel its entry.
+template <class GridT, class ToColour>
+SolidExtraction colourGrid(const GridT& grid, ToColour toColour, const std::string& file) {
+  auto pred = [](const auto&) { return true; };
+  guardSize(grid, false, pred, file);
+  std::unordered_map<ColourKey, std::uint32_t, ColourHash> ids;  // colour -> distinct index
+  std::vector<ColourKey> distinct;
+  std::vector<std::uint64_t> weight;
+  std::vector<std::pair<glm::ivec3, std::uint32_t>> raw;
+  visitValues(grid, false, pred, [&](const openvdb::Coord& c, const auto& value) {
+    glm::vec3 col = toColour(value);
+    ColourKey key{col.x, col.y, col.z};
+    auto [it, inserted] = ids.try_emplace(key, std::uint32_t(distinct.size()));
+    if (inserted) {
+      distinct.push_back(key);
+      weight.push_back(0);
+    }
+    ++weight[it->second];
+    raw.push_back({glm::ivec3(c.x(), c.y(), c.z()), it->second});
+  });
+  SolidExtraction out;
+  out.palette.assign(1, glm::vec3(0.0f));
+  std::vector<std::uint8_t> entryOf(distinct.size());
+  if (distinct.size() <= 255) {
+    for (std::size_t i = 0; i < distinct.size(); ++i) {
+      out.palette.push_back(glm::vec3(distinct[i].r, distinct[i].g, distinct[i].b));
+      entryOf[i] = std::uint8_t(i + 1);
+    }
+  } else {
+    std::vector<std::uint32_t> order(distinct.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = std::uint32_t(i);
+    struct Box {
+      std::size_t begin, end;
+    };
+    std::vector<Box> boxes{{0, order.size()}};
+    auto channel = [&](std::uint32_t i, int a) { return a == 0 ? distinct[i].r : a == 1 ? distinct[i].g : distinct[i].b; };
+    while (boxes.size() < 255) {
+      // Split the box with the widest channel range.
+      int bestBox = -1, bestAxis = 0;
+      float bestRange = 0.0f;
+      for (std::size_t b = 0; b < boxes.size(); ++b) {
+        if (boxes[b].end - boxes[b].begin < 2) continue;
+        for (int a = 0; a < 3; ++a) {
+          float lo = INFINITY, hi = -INFINITY;
+          for (std::size_t k = boxes[b].begin; k < boxes[b].end; ++k) {
+            lo = std::min(lo, channel(order[k], a));
+            hi = std::max(hi, channel(order[k], a));
+          }
+          if (hi - lo > bestRange) {
+            bestRange = hi - lo;
+            bestBox = int(b);
+            bestAxis = a;
+          }
+        }
+      }
+      if (bestBox < 0) break;
+      Box box = boxes[std::size_t(bestBox)];
+      std::sort(order.begin() + std::ptrdiff_t(box.begin), order.begin() + std::ptrdiff_t(box.end),
+                [&](std::uint32_t x, std::uint32_t y) {
+                  return channel(x, bestAxis) != channel(y, bestAxis) ? channel(x, bestAxis) < channel(y, bestAxis) : x < y;
+                });
+      std::size_t mid = box.begin + (box.end - box.begin) / 2;
+      boxes[std::size_t(bestBox)] = {box.begin, mid};
+      boxes.push_back({mid, box.end});
+    }
+    for (const Box& box : boxes) {
+      glm::dvec3 sum(0.0);
+      double w = 0.0;
+      for (std::size_t k = box.begin; k < box.end; ++k) {
+        std::uint32_t i = order[k];
+        sum += glm::dvec3(distinct[i].r, distinct[i].g, distinct[i].b) * double(weight[i]);
+        w += double(weight[i]);
+        entryOf[i] = std::uint8_t(out.palette.size());
+      }
+      out.palette.push_back(glm::vec3(sum / std::max(w, 1.0)));
+    }
+    // One refinement step: each colour takes its nearest entry, so no colour keeps a far box mean.
+    for (std::size_t i = 0; i < distinct.size(); ++i) {
+      glm::vec3 c(distinct[i].r, distinct[i].g, distinct[i].b);
+      float best = INFINITY;
+      for (std::size_t e = 1; e < out.palette.size(); ++e) {
+        glm::vec3 d = out.palette[e] - c;
+        float dd = glm::dot(d, d);
+        if (dd < best) {
+          best = dd;
+          entryOf[i] = std::uint8_t(e);
+        }
+      }
+    }
+  }
+  out.voxels.reserve(raw.size());
+  for (const auto& [c, id] : raw) out.voxels.push_back({c, entryOf[id]});
+  return out;
+}
+
+}  // namespace
+
+std::uint8_t integerMaterial(std::int64_t v) {
+  std::int64_t m = (v - 1) % 255;
+  if (m < 0) m += 255;
+  return std::uint8_t(1 + m);
+}
+
+std::vector<glm::vec3> integerPalette(glm::vec3 color) {
+  std::vector<glm::vec3> p(256, glm::vec3(0.0f));
+  p[1] = color;
+  for (int i = 2; i < 256; ++i) {
+    // Golden-ratio hue steps at two lightness levels: neighbouring indices stay distinguishable.
+    float h = std::fmod(0.61803398875f * float(i), 1.0f) * 6.0f;
+    float v = (i & 1) ? 0.85f : 0.6f, s = 0.55f;
+    float f = h - std::floor(h);
+    float pp = v * (1 - s), q = v * (1 - s * f), t = v * (1 - s * (1 - f));
+    switch (int(h) % 6) {
+      case 0: p[std::size_t(i)] = {v, t, pp}; break;
+      case 1: p[std::size_t(i)] = {q, v, pp}; break;
+      case 2: p[std::size_t(i)] = {pp, v, t}; break;
+      case 3: p[std::size_t(i)] = {pp, q, v}; break;
+      case 4: p[std::size_t(i)] = {t, pp, v}; break;
+      default: p[std::size_t(i)] = {v, pp, q}; break;
+    }
+  }
+  return p;
+}
+
+std::string solidRuleOf(const openvdb::GridBase& g) {
+  bool real = g.isType<openvdb::FloatGrid>() || g.isType<openvdb::DoubleGrid>();
+  if (real && isLevelSet(g)) return "level set: value < 0 (interior filled)";
+  if (real) return "scalar: active and value > density_threshold";
+  if (g.isType<openvdb::BoolGrid>() || g.isType<openvdb::MaskGrid>()) return "mask: active";
+  if (g.isType<openvdb::Int32Grid>() || g.isType<openvdb::Int64Grid>())
+    return "integer: active and value != 0, material = 1 + (value - 1) mod 255";
+  if (g.isType<openvdb::Vec3SGrid>() || g.isType<openvdb::Vec3DGrid>() || g.isType<openvdb::Vec3IGrid>())
+    return "colour: active, colour quantised into the palette";
+  return {};
+}
+
+SolidExtraction extractSolid(const openvdb::GridBase& g, const LoadOptions& options, const std::string& file) {
+  SolidExtraction out;
+  auto one = [](const auto&) { return std::uint8_t(1); };
+  const float thr = options.densityThreshold;
+  auto scalar = [&](const auto& grid) {
+    if (isLevelSet(g)) return collect(grid, true, [](auto v) { return v < 0; }, one, file);
+    return collect(grid, false, [thr](auto v) { return double(v) > double(thr); }, one, file);
+  };
+  if (const auto* fg = dynamic_cast<const openvdb::FloatGrid*>(&g)) {
+    out.voxels = scalar(*fg);
+  } else if (const auto* dg = dynamic_cast<const openvdb::DoubleGrid*>(&g)) {
+    out.voxels = scalar(*dg);
+  } else if (const auto* bg = dynamic_cast<const openvdb::BoolGrid*>(&g)) {
+    out.voxels = collect(*bg, false, [](bool) { return true; }, one, file);
+  } else if (const auto* mg = dynamic_cast<const openvdb::MaskGrid*>(&g)) {
+    out.voxels = collect(*mg, false, [](bool) { return true; }, one, file);
+  } else if (const auto* ig = dynamic_cast<const openvdb::Int32Grid*>(&g)) {
+    out.voxels = collect(*ig, false, [](std::int32_t v) { return v != 0; },
+                         [](std::int32_t v) { return integerMaterial(v); }, file);
+    out.palette = integerPalette(options.color);
+    return out;
+  } else if (const auto* lg = dynamic_cast<const openvdb::Int64Grid*>(&g)) {
+    out.voxels = collect(*lg, false, [](std::int64_t v) { return v != 0; },
+                         [](std::int64_t v) { return integerMaterial(v); }, file);
+    out.palette = integerPalette(options.color);
+    return out;
+  } else if (const auto* vs3 = dynamic_cast<const openvdb::Vec3SGrid*>(&g)) {
+    return colourGrid(*vs3, [](const openvdb::Vec3f& v) { return glm::vec3(v.x(), v.y(), v.z()); }, file);
+  } else if (const auto* vd3 = dynamic_cast<const openvdb::Vec3DGrid*>(&g)) {
+    return colourGrid(*vd3, [](const openvdb::Vec3d& v) { return glm::vec3(float(v.x()), float(v.y()), float(v.z())); }, file);
+  } else if (const auto* vi3 = dynamic_cast<const openvdb::Vec3IGrid*>(&g)) {
+    // Integer colours are 8-bit channels.
+    return colourGrid(*vi3, [](const openvdb::Vec3i& v) { return glm::vec3(v.x(), v.y(), v.z()) / 255.0f; }, file);
+  } else {
+    throwBadInput(file + ": " + gridLabel(g) + " of type " + g.valueType() + " has no solid rule");
+  }
+  out.palette = {glm::vec3(0.0f), options.color};
+  return out;
+}
+
+glm::dmat4 brickToObjectOf(const openvdb::GridBase& g, const std::string& file) {
+  const openvdb::math::Transform& t = g.transform();
+  if (!t.isLinear()) {
+    throwBadInput(file + ": " + gridLabel(g) + " has a non-linear (" + t.mapType() +
+                  ") transform; only linear transforms are supported");
+  }
+  openvdb::Mat4d m = t.baseMap()->getAffineMap()->getMat4();
+  // OpenVDB multiplies row vectors (translation in row 3); GLM's column-major m[col][row] of the
+  // column-vector form holds the same numbers at the same indices.
+  glm::dmat4 g4(1.0);
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) g4[i][j] = m(i, j);
+  return g4 * glm::translate(glm::dmat4(1.0), glm::dvec3(-0.5));
+}
+
+}  // namespace vs

@@ -1,0 +1,53 @@
+// vdb_rules.h: the solid rules of DESIGN.md §3 applied to one OpenVDB grid, and VDB file reading.
+// Internal to the voxel module (its interface names OpenVDB types).
+#ifndef VOXSHADOW_VDB_RULES_H
+#define VOXSHADOW_VDB_RULES_H
+
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <openvdb/openvdb.h>
+
+#include "voxel/brickmap.h"
+#include "voxel/voxel_object.h"
+
+namespace vs {
+
+// Most solid voxels one grid may expand to (tiles included) before it is refused: bounds the memory a
+// hostile or absurd file can make the loader allocate.
+inline constexpr std::uint64_t kMaxLoadVoxels = std::uint64_t(1) << 26;
+
+// Calls openvdb::initialize() once per process; safe from any thread.
+void ensureOpenVdbInitialized();
+
+// Reads every grid of a .vdb file, in file order. Throws vs::Error(BadInput) naming the file when it is
+// missing, unreadable, not a VDB or damaged (OpenVDB's exceptions are caught and rethrown).
+openvdb::GridPtrVec readVdbGrids(const std::string& path);
+
+// The human-readable solid rule for a grid, or an empty string when its type has none.
+std::string solidRuleOf(const openvdb::GridBase& grid);
+
+struct SolidExtraction {
+  std::vector<SolidVoxel> voxels;   // brick-space coordinates (= index coordinates) and palette indices
+  std::vector<glm::vec3> palette;   // entry 0 unused
+};
+
+// Applies the grid's solid rule. Preconditions: solidRuleOf(grid) is not empty. Throws vs::Error(BadInput)
+// naming `file` and the grid when the grid would expand to more than kMaxLoadVoxels voxels or its bounds
+// exceed the brickmap's region-table limit.
+SolidExtraction extractSolid(const openvdb::GridBase& grid, const LoadOptions& options, const std::string& file);
+
+// The grid's index-to-world map times translate(-0.5), as a GLM column-major matrix. Throws
+// vs::Error(BadInput) naming file and grid when the transform is not linear.
+glm::dmat4 brickToObjectOf(const openvdb::GridBase& grid, const std::string& file);
+
+// The deterministic palette of integer grids: entry 1 is `color`, the rest spread over hues.
+std::vector<glm::vec3> integerPalette(glm::vec3 color);
+
+// Maps an integer grid value (non-zero) to a palette index 1..255: 1 + (v - 1) mod 255.
+std::uint8_t integerMaterial(std::int64_t v);
+
+}  // namespace vs
+
+#endif
