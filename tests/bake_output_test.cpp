@@ -54,29 +54,6 @@ std::vector<std::string> dirEntries(const fs::path& dir) {
 }
 
 
-// A directory in which this process cannot create files. Permission bits bind only non-root users; for
-// root, sysfs's top directory refuses new files. Fails the test when neither works.
-fs::path unwritableDir(const fs::path& scratch) {
-  fs::permissions(scratch, fs::perms::owner_read | fs::perms::owner_exec);
-  const fs::path probe = scratch / "probe";
-  if (!std::ofstream(probe)) return scratch;
-  fs::remove(probe);
-  fs::permissions(scratch, fs::perms::owner_all);
-  const fs::path sys = "/sys";
-  if (fs::is_directory(sys) && !std::ofstream(sys / "voxshadow-probe")) return sys;
-  ADD_FAILURE() << "no directory refuses new files to this process";
-  return scratch;
-}
-
-// Entries of dir whose names mention stem (the output or its temporaries).
-std::vector<std::string> leftovers(const fs::path& dir, const std::string& stem) {
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    std::string n = e.path().filename().string();
-    if (n.find(stem) != std::string::npos) names.push_back(n);
-  }
-  return names;
-}
 
 }  // namespace
 
@@ -185,7 +162,7 @@ TEST(BakeOutput, OiiotoolListsTheAttributes) {
 
 TEST(BakeOutput, UnwritableDirectoryLeavesNothing) {
   fs::path scratch = vs::test::scratchDir("bake_output_unwritable");
-  fs::path dir = unwritableDir(scratch);
+  fs::path dir = vs::test::unwritableDir(scratch);
   auto views = threeViews();
   try {
     vs::writeShadowExr(dir / "vs_shadows.exr", views);
@@ -194,7 +171,7 @@ TEST(BakeOutput, UnwritableDirectoryLeavesNothing) {
     EXPECT_NE(std::string(e.what()).find("vs_shadows.exr"), std::string::npos) << e.what();
   }
   EXPECT_THROW(vs::writeContactSheetPng(dir / "vs_sheet.png", views), vs::Error);
-  EXPECT_TRUE(leftovers(dir, "vs_s").empty());
+  EXPECT_TRUE(vs::test::leftovers(dir, "vs_s").empty());
   fs::permissions(scratch, fs::perms::owner_all);
   // A directory that does not exist at all.
   EXPECT_THROW(vs::writeShadowExr(scratch / "missing" / "shadows.exr", views), vs::Error);

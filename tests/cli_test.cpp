@@ -21,7 +21,7 @@ std::string quote(const fs::path& p) {
   return q;
 }
 
-int cli(const std::string& args, std::string& out) { return vs::test::runCommand(vs::test::cliPath() + " " + args, out); }
+int cli(const std::string& args, std::string& out) { return vs::test::runCli(args, out); }
 
 bool contains(const std::string& haystack, const std::string& needle) {
   return haystack.find(needle) != std::string::npos;
@@ -51,29 +51,6 @@ std::vector<std::string> subimageNames(const fs::path& exr) {
 }
 
 
-// A directory in which this process cannot create files. Permission bits bind only non-root users; for
-// root, sysfs's top directory refuses new files. Fails the test when neither works.
-fs::path unwritableDir(const fs::path& scratch) {
-  fs::permissions(scratch, fs::perms::owner_read | fs::perms::owner_exec);
-  const fs::path probe = scratch / "probe";
-  if (!std::ofstream(probe)) return scratch;
-  fs::remove(probe);
-  fs::permissions(scratch, fs::perms::owner_all);
-  const fs::path sys = "/sys";
-  if (fs::is_directory(sys) && !std::ofstream(sys / "voxshadow-probe")) return sys;
-  ADD_FAILURE() << "no directory refuses new files to this process";
-  return scratch;
-}
-
-// Entries of dir whose names mention stem (the output or its temporaries).
-std::vector<std::string> leftovers(const fs::path& dir, const std::string& stem) {
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    std::string n = e.path().filename().string();
-    if (n.find(stem) != std::string::npos) names.push_back(n);
-  }
-  return names;
-}
 
 }  // namespace
 
@@ -243,10 +220,10 @@ TEST(Cli, BakeToUnusableOutputExitsTwoAndWritesNothing) {
   // A directory that refuses new files.
   const fs::path locked = dir / "locked";
   fs::create_directory(locked);
-  const fs::path target = unwritableDir(locked);
+  const fs::path target = vs::test::unwritableDir(locked);
   EXPECT_EQ(cli("bake " + quote(scene) + " -o " + quote(target / "vs_out.exr") + " --backend cpu", out), 2) << out;
   EXPECT_TRUE(contains(out, "not writable")) << out;
-  EXPECT_TRUE(leftovers(target, "vs_out").empty());
+  EXPECT_TRUE(vs::test::leftovers(target, "vs_out").empty());
   fs::permissions(locked, fs::perms::owner_all);
   EXPECT_FALSE(fs::exists(dir / "out.png"));
 }

@@ -1,4 +1,5 @@
 // voxshadow bake: scene -> light views -> shadow trace -> EXR + sidecar (+ PNG preview).
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 
@@ -43,24 +44,67 @@ std::vector<ShadowLayer> traceOnCpu(const Scene& scene, const std::vector<LightV
   return layers;
 }
 
-std::vector<ShadowLayer> traceOnVulkan(const Scene& scene, const std::vector<LightView>& views) {
-  VulkanTracer tracer;
+// What the Vulkan trace measured, for --stats.
+struct VulkanBakeStats {
+  std::string device;
+  PipelineStats pipeline;
+  std::size_t dispatchCalls = 0;
+  std::vector<double> viewGpuMs;  // per view; < 0 when the device has no timestamps
+  double wallMs = 0.0;
+};
+
+VulkanOptions vulkanOptions(const std::string& device) {
+  VulkanOptions o;
+  if (device.empty()) return o;
+  if (device.find_first_not_of("0123456789") == std::string::npos && device.size() < 9) o.deviceIndex = std::stoi(device);
+  else o.deviceName = device;
+  return o;
+}
+
+// All views of one size are traced in one VulkanTracer::trace call (one submission, one readback); views of
+// different sizes go in one call per size, so the image array is never padded to the largest view.
+std::vector<ShadowLayer> traceOnVulkan(const Scene& scene, const std::vector<LightView>& views,
+                                       const std::string& device, VulkanBakeStats& stats) {
+  VulkanTracer tracer(vulkanOptions(device));
+  stats.device = tracer.device().name;
+  stats.pipeline = tracer.pipelineStats();
   tracer.upload(scene.data());
+  std::vector<std::pair<int, int>> sizes;
+  for (const LightView& v : views) {
+    std::pair<int, int> size(v.trace.info.x, v.trace.info.y);
+    if (std::find(sizes.begin(), sizes.end(), size) == sizes.end()) sizes.push_back(size);
+  }
   Progress progress("tracing (" + tracer.device().name + ")");
   std::vector<ShadowLayer> layers(views.size());
-  for (std::size_t i = 0; i < views.size(); ++i) {
-    std::vector<ShadowLayer> one(1);
-    tracer.trace(std::span<const gpu::TraceView>(&views[i].trace, 1), one);
-    layers[i] = std::move(one[0]);
-    progress.update(i + 1, views.size());
+  stats.viewGpuMs.assign(views.size(), -1.0);
+  std::size_t done = 0;
+  for (const auto& size : sizes) {
+    std::vector<std::size_t> members;
+    std::vector<gpu::TraceView> group;
+    for (std::size_t i = 0; i < views.size(); ++i)
+      if (views[i].trace.info.x == size.first && views[i].trace.info.y == size.second) {
+        members.push_back(i);
+        group.push_back(views[i].trace);
+      }
+    std::vector<ShadowLayer> out;
+    TraceStats t = tracer.trace(group, out);
+    ++stats.dispatchCalls;
+    stats.wallMs += t.wallMs;
+    for (std::size_t k = 0; k < members.size(); ++k) {
+      layers[members[k]] = std::move(out[k]);
+      if (k < t.viewGpuMs.size()) stats.viewGpuMs[members[k]] = t.viewGpuMs[k];
+    }
+    done += members.size();
+    progress.update(done, views.size());
   }
   progress.finish();
   return layers;
 }
 
-std::vector<ShadowLayer> trace(const Scene& scene, const std::vector<LightView>& views, const BakeOptions& options) {
+std::vector<ShadowLayer> trace(const Scene& scene, const std::vector<LightView>& views, const BakeOptions& options,
+                               VulkanBakeStats& vulkanStats) {
   if (options.backend == "cpu") return traceOnCpu(scene, views, options.threads);
-  return traceOnVulkan(scene, views);
+  return traceOnVulkan(scene, views, options.device, vulkanStats);
 }
 
 BakedView toBaked(const LightView& v, ShadowLayer&& layer) {
@@ -88,6 +132,8 @@ void runBake(const BakeOptions& options) {
     throwBadInput(options.preview->string() + ": the preview must be a .png file");
   if (options.backend != "cpu" && options.backend != "vulkan")
     throwBadInput("unknown backend '" + options.backend + "' (cpu or vulkan)");
+  if (!options.device.empty() && options.backend != "vulkan")
+    throwBadInput("--device chooses a Vulkan device; it needs --backend vulkan");
   checkOutputDirectory(options.output);
   if (options.preview) checkOutputDirectory(*options.preview);
 
@@ -98,7 +144,8 @@ void runBake(const BakeOptions& options) {
   if (views.empty()) throwBadInput(options.scene.string() + ": lights: no light casts a shadow, nothing to bake");
 
   auto t1 = Clock::now();
-  std::vector<ShadowLayer> layers = trace(scene, views, options);
+  VulkanBakeStats vulkanStats;
+  std::vector<ShadowLayer> layers = trace(scene, views, options, vulkanStats);
   double traceSeconds = secondsSince(t1);
 
   std::vector<BakedView> baked;
@@ -134,6 +181,25 @@ void runBake(const BakeOptions& options) {
                 scene.instances().size());
     std::printf("  trace %.3f s, %llu rays, %.2f Mrays/s\n", traceSeconds, static_cast<unsigned long long>(texels),
                 traceSeconds > 0.0 ? double(texels) / traceSeconds * 1e-6 : 0.0);
+    if (options.backend == "vulkan") {
+      const PipelineStats& p = vulkanStats.pipeline;
+      std::error_code ec;
+      auto cacheBytes = std::filesystem::file_size(p.cacheFile, ec);
+      std::printf("  device %s, %zu trace call%s (one per view size)\n", vulkanStats.device.c_str(),
+                  vulkanStats.dispatchCalls, vulkanStats.dispatchCalls == 1 ? "" : "s");
+      std::printf("  pipeline creation %.1f ms, %s cache (%s, %llu bytes%s)\n", p.createMs,
+                  p.warmCache ? "warm" : "cold", p.cacheFile.c_str(), ec ? 0ull : (unsigned long long)cacheBytes,
+                  p.cacheSaved ? "" : (", not saved: " + p.cacheError).c_str());
+      for (std::size_t i = 0; i < baked.size(); ++i) {
+        double rays = double(baked[i].width) * double(baked[i].height);
+        double ms = vulkanStats.viewGpuMs[i];
+        if (ms > 0.0)
+          std::printf("  view %-24s %10.0f rays  %9.2f ms GPU  %8.2f Mrays/s\n", baked[i].name.c_str(), rays, ms,
+                      rays / (ms * 1e3));
+        else
+          std::printf("  view %-24s %10.0f rays  (no GPU timestamps)\n", baked[i].name.c_str(), rays);
+      }
+    }
     std::printf("  write %.3f s\n", writeSeconds);
   }
 }
@@ -150,7 +216,10 @@ void registerBake(CLI::App& app) {
   sub->add_option("--threads", options->threads, "CPU threads (0: all)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  sub->add_flag("--stats", options->stats, "Print timings and ray throughput");
+  sub->add_option("--device", options->device,
+                  "Vulkan device: an index or part of a name from `voxshadow info --devices` (default: best)");
+  sub->add_flag("--stats", options->stats,
+                "Print timings and ray throughput (Vulkan: per-view GPU time and the pipeline creation time)");
   sub->callback([options] { runBake(*options); });
 }
 

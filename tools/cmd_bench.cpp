@@ -2,6 +2,7 @@
 // same rays, same thread count, in one run (DESIGN.md §10).
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <cstdio>
 #include <functional>
 #include <string>
@@ -10,6 +11,7 @@
 #include <glm/glm.hpp>
 
 #include "compute/cpu/cpu_tracer.h"
+#include "compute/vulkan/vulkan_tracer.h"
 #include "tools/commands.h"
 #include "tools/peer/openvdb_peer.h"
 #include "voxel/city512.h"
@@ -23,6 +25,7 @@ struct BenchOptions {
   int resolution = 1024;
   int reps = 5;
   bool skipPeer = false;
+  bool vulkan = false;
 };
 
 // The calibration window of DESIGN.md §10: an orthographic view along d over the projection of [0,512]^3.
@@ -79,6 +82,43 @@ double timeMedian(int reps, const std::function<void()>& fn) {
   return median(seconds);
 }
 
+// The Vulkan backend on the same rays: pipeline creation (the shader JIT on lavapipe) and the first trace
+// are reported apart from the steady state, the median over `reps` traces after one more warm-up trace.
+struct VulkanBench {
+  std::string device;
+  double pipelineMs = 0.0;
+  bool warmCache = false;
+  double firstWallMs = 0.0;
+  double medianGpuMs = -1.0;   // from timestamps; < 0 when the device has none
+  double medianWallMs = 0.0;   // host time of a whole trace call: submission, dispatch, readback
+  std::size_t differing = 0;   // texels differing from the CPU reference
+};
+
+VulkanBench benchVulkan(const SceneData& scene, const std::vector<gpu::TraceView>& views, int reps,
+                        const std::vector<ShadowLayer>& reference) {
+  VulkanBench b;
+  VulkanTracer tracer;
+  b.device = tracer.device().name;
+  b.pipelineMs = tracer.pipelineStats().createMs;
+  b.warmCache = tracer.pipelineStats().warmCache;
+  tracer.upload(scene);
+  std::vector<ShadowLayer> layers;
+  b.firstWallMs = tracer.trace(views, layers).wallMs;
+  tracer.trace(views, layers);
+  std::vector<double> gpu, wall;
+  for (int i = 0; i < reps; ++i) {
+    TraceStats t = tracer.trace(views, layers);
+    gpu.push_back(t.gpuMs);
+    wall.push_back(t.wallMs);
+  }
+  b.medianGpuMs = median(gpu);
+  b.medianWallMs = median(wall);
+  for (std::size_t i = 0; i < layers.size() && i < reference.size(); ++i)
+    for (std::size_t k = 0; k < layers[i].texels.size(); ++k)
+      if (std::memcmp(&layers[i].texels[k], &reference[i].texels[k], sizeof(float)) != 0) ++b.differing;
+  return b;
+}
+
 void runBench(const BenchOptions& opt) {
   if (opt.threads < 1 || opt.resolution < 16 || opt.resolution > 16384 || opt.reps < 1) {
     throwBadInput("bench: --threads >= 1, --resolution in 16..16384 and --reps >= 1 required");
@@ -110,6 +150,20 @@ void runBench(const BenchOptions& opt) {
   std::printf("%-28s %9.3f s  %8.2f Mrays/s\n", "cpu reference (per ray)", referenceSeconds,
               rays / referenceSeconds / 1e6);
   std::printf("%-28s %9.3f s  %8.2f Mrays/s\n", "cpu interleaved tiles", cpuSeconds, rays / cpuSeconds / 1e6);
+  double vulkanSeconds = 0.0;
+  if (opt.vulkan) {
+    std::vector<ShadowLayer> reference;
+    traceCpu(scene, views, reference, CpuTracePath::Reference, opt.threads);
+    VulkanBench vb = benchVulkan(scene, views, opt.reps, reference);
+    // Steady state from GPU timestamps where the device has them (the dispatch alone), else host time.
+    vulkanSeconds = (vb.medianGpuMs > 0.0 ? vb.medianGpuMs : vb.medianWallMs) * 1e-3;
+    std::printf("vulkan device: %s; pipeline creation %.1f ms (%s cache), first trace %.1f ms (wall)\n",
+                vb.device.c_str(), vb.pipelineMs, vb.warmCache ? "warm" : "cold", vb.firstWallMs);
+    std::printf("%-28s %9.3f s  %8.2f Mrays/s  (GPU timestamps; whole call %.3f s, %.2f Mrays/s)\n",
+                "vulkan steady state", vulkanSeconds, rays / vulkanSeconds / 1e6, vb.medianWallMs * 1e-3,
+                rays / (vb.medianWallMs * 1e-3) / 1e6);
+    std::printf("vulkan texels differing from the cpu reference: %zu\n", vb.differing);
+  }
   if (opt.skipPeer) return;
 
   OpenVdbPeer peer(objects, scene);
@@ -120,6 +174,7 @@ void runBench(const BenchOptions& opt) {
               rays / peerSeconds / 1e6, peerHits);
   std::printf("ratio cpu reference / peer:   %.2fx\n", peerSeconds / referenceSeconds);
   std::printf("ratio cpu interleaved / peer: %.2fx\n", peerSeconds / cpuSeconds);
+  if (opt.vulkan) std::printf("ratio vulkan / peer:          %.2fx\n", peerSeconds / vulkanSeconds);
 }
 
 }  // namespace
@@ -131,6 +186,9 @@ void registerBench(CLI::App& app) {
   cmd->add_option("--resolution", options->resolution, "view resolution in texels per side (default 1024)");
   cmd->add_option("--reps", options->reps, "timed repetitions after a warm-up; the median is reported (default 5)");
   cmd->add_flag("--no-peer", options->skipPeer, "skip the OpenVDB peer");
+  cmd->add_flag("--vulkan", options->vulkan,
+                "also trace on the Vulkan backend (default device): steady-state median after warm-up, pipeline "
+                "creation and first trace reported apart");
   cmd->callback([options] { runBench(*options); });
 }
 

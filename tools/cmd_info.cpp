@@ -199,12 +199,21 @@ void registerInfo(CLI::App& app) {
   struct Options {
     std::vector<std::string> files;
     bool json = false;
+    bool devices = false;
   };
   auto options = std::make_shared<Options>();
   CLI::App* sub = app.add_subcommand("info", "Describe .vdb files (grids, solid voxels, brickmap memory) and scenes");
-  sub->add_option("FILE", options->files, ".vdb files or .json scene files")->required();
+  sub->add_option("FILE", options->files, ".vdb files or .json scene files");
   sub->add_flag("--json", options->json, "Print one JSON document instead of text");
+  sub->add_flag("--devices", options->devices,
+                "List the Vulkan devices (index, name, type, driver, limits the trace uses) for bake --device");
   sub->callback([options] {
+    if (options->devices) {
+      if (!options->files.empty()) throwBadInput("info: --devices takes no FILE");
+      printVulkanDevices(options->json);
+      return;
+    }
+    if (options->files.empty()) throwBadInput("info: FILE is required (or --devices)");
     json all = json::array();
     for (const std::string& f : options->files) {
       json j = fileInfo(f);

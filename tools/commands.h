@@ -11,9 +11,9 @@
 
 namespace vs::cli {
 
-void registerInfo(CLI::App& app);  // voxshadow info FILE... [--json]
+void registerInfo(CLI::App& app);  // voxshadow info FILE... [--json] | info --devices [--json]
 void registerDemo(CLI::App& app);  // voxshadow demo [--out DIR]
-void registerBake(CLI::App& app);  // voxshadow bake SCENE -o OUT.exr [--backend] [--preview] [--threads] [--stats]
+void registerBake(CLI::App& app);  // voxshadow bake SCENE -o OUT.exr [--backend] [--device] [--preview] [--threads] [--stats]
 void registerBench(CLI::App& app); // voxshadow bench [--threads N] [--resolution R] [--reps K] [--vulkan]
 
 struct BakeOptions {
@@ -22,12 +22,17 @@ struct BakeOptions {
   std::optional<std::filesystem::path> preview; // must end in .png
   std::string backend = "vulkan";               // "vulkan" | "cpu" (DESIGN.md §9)
   int threads = 0;                              // CPU backend: 0 = every hardware thread
+  std::string device;                           // Vulkan backend: index (digits) or name part; empty = best
   bool stats = false;
 };
 
 // The bake shared by `bake` and `demo`. Preconditions: none; bad paths or scenes throw vs::Error(BadInput)
 // before any tracing, and a failure leaves no output file.
 void runBake(const BakeOptions& options);
+
+// Prints every Vulkan device (vs::listVulkanDevices order) with the limits the trace depends on, as text or
+// one JSON array. Throws vs::Error(Runtime) when Vulkan cannot start; prints an empty list when it has no device.
+void printVulkanDevices(bool asJson);
 
 // Prints `info` of one file (.vdb or .json scene) to stdout. Throws vs::Error naming the file.
 void printInfo(const std::filesystem::path& file);

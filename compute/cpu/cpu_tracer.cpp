@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "compute/cpu/lane_tracer.h"
 #include "compute/cpu/scene_arrays.h"
 #include "compute/cpu/tile_tracer.h"
 #include "voxel/error.h"
@@ -34,10 +35,7 @@ void checkView(const gpu::TraceView& view, std::size_t index) {
 void traceCpu(const SceneData& scene, std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers,
               CpuTracePath path, int threads) {
   layers.resize(views.size());
-  struct TileJob {
-    int view, x0, y0, x1, y1;
-  };
-  std::vector<TileJob> jobs;
+  std::vector<TexelTile> jobs;
   for (std::size_t i = 0; i < views.size(); ++i) {
     const gpu::TraceView& view = views[i];
     checkView(view, i);
@@ -53,10 +51,18 @@ void traceCpu(const SceneData& scene, std::span<const gpu::TraceView> views, std
   }
 
   gpu::SceneArrays arrays(scene);
+  LaneTables laneTables;
+  const bool lanes =
+      path == CpuTracePath::Interleaved && laneTracerSupported(scene) && buildLaneTables(scene, laneTables);
   auto run = [&] {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, jobs.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+      if (lanes) {
+        // One stream over the whole range, so that lanes freed by short rays pick up the next tile's texels.
+        traceTilesLanes(arrays, laneTables, views, std::span<const TexelTile>(jobs).subspan(r.begin(), r.size()), layers);
+        return;
+      }
       for (std::size_t j = r.begin(); j != r.end(); ++j) {
-        const TileJob& job = jobs[j];
+        const TexelTile& job = jobs[j];
         const gpu::TraceView& view = views[job.view];
         ShadowLayer& layer = layers[job.view];
         if (path == CpuTracePath::Interleaved) {

@@ -18,7 +18,9 @@ struct ShadowLayer {
 
 enum class CpuTracePath {
   Reference,    // the portable per-ray traversal, exactly what the shader runs
-  Interleaved,  // tiles of rays walked in lockstep (compute/cpu/tile_tracer.h); equal texel for texel
+  // Tiles of rays walked in lockstep, equal to Reference texel for texel: eight rays per AVX2 step
+  // (compute/cpu/lane_tracer.h) where the processor has AVX2, else round-robin (compute/cpu/tile_tracer.h).
+  Interleaved,
 };
 
 // Traces every view's texel rectangle into layers[i] (resized to the view's size when it differs; texels

@@ -1,5 +1,6 @@
-// tile_tracer.h: the CPU fast path. The rays of a small texel tile walk the scene interleaved: each round
-// advances every unfinished ray by one cell of the portable object walk (compute/shared/traverse.h).
+// tile_tracer.h: the portable CPU tile path (the fast path where AVX2 is missing; compute/cpu/lane_tracer.h
+// is the other). The rays of a small texel tile walk the scene interleaved: each round advances every
+// unfinished ray by one cell of the portable object walk (compute/shared/traverse.h).
 //
 // A single ray's walk is a long chain of dependent loads (region table, region, sector, brick, occupancy);
 // interleaving independent rays lets the processor overlap those chains. Every arithmetic step is the

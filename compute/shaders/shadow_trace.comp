@@ -1,8 +1,8 @@
 // shadow_trace.comp: one invocation per shadow texel, running the portable traversal (compute/shared/traverse.h).
 //
-// Dispatch: x, y cover the largest texel rectangle of the batch (8x8 workgroups), z is the layer. Each
-// invocation offsets by its layer's rectangle origin and skips texels outside the rectangle, so a partial
-// re-trace touches only the texels it was asked for.
+// Dispatch: one per layer (or per run of layers): x, y cover the texel rectangle (8x8 workgroups), z counts
+// layers from layerBase. Each invocation offsets by its layer's rectangle origin and skips texels outside the
+// rectangle, so a partial re-trace touches only the texels it was asked for.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #define VS_GLSL 1
@@ -36,12 +36,18 @@ layout(push_constant) uniform TracePush {
   uint sectorShift;
   uint brickShift;
   uint occupancyShift;
-  uint reserved;
+  uint layerBase;  // layer of gl_GlobalInvocationID.z == 0
 };
+
+// False when every array fits one binding (the usual case). A specialization constant, so the pipeline
+// without splits drops the chunk selection at compile time: llvmpipe runs every branch of a divergent `if`
+// with lanes masked off, which made each read cost four loads.
+layout(constant_id = 0) const bool VS_SPLIT_BINDINGS = true;
 
 // A chunk index differs between invocations, so each case indexes the block array with a constant:
 // no non-uniform descriptor indexing is needed.
 #define VS_CHUNK_READ(T, chunks, shift, index)                                  \
+  if (!VS_SPLIT_BINDINGS) return chunks[0].data[index];                         \
   T value;                                                                      \
   uint c = (index) >> (shift);                                                  \
   uint j = (index) & ((1u << (shift)) - 1u);                                    \
@@ -66,7 +72,7 @@ uint vsReadOccupancy(uint i) { VS_CHUNK_READ(uint, occupancyChunks, occupancyShi
 #include "compute/shared/traverse.h"
 
 void main() {
-  uint layer = gl_GlobalInvocationID.z;
+  uint layer = gl_GlobalInvocationID.z + layerBase;
   if (layer >= layerCount) return;
   TraceView view = views[layer];
   ivec2 texel = view.rect.xy + ivec2(gl_GlobalInvocationID.xy);

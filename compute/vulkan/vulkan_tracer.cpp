@@ -24,7 +24,7 @@ struct TracePush {
   std::uint32_t nodeCount;
   std::uint32_t layerCount;
   std::uint32_t shifts[kSplitArrayCount];
-  std::uint32_t reserved;
+  std::uint32_t layerBase;
 };
 static_assert(sizeof(TracePush) == 32);
 
@@ -51,10 +51,13 @@ struct VulkanTracer::Impl {
   VulkanOptions options;
   VulkanContext context;
   std::unique_ptr<DiskPipelineCache> cache;
-  vk::ComputePipeline pipeline;
+  vk::ComputePipeline pipeline;   // pipeline.pipeline: every array in one binding
+  vk::UniqueShaderModule module;
+  vk::UniquePipeline splitPipeline;  // arrays over several bindings; created on first need
   vk::UniqueDescriptorPool descriptorPool;
   VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
   vk::UniqueQueryPool queryPool;
+  std::uint32_t queryCapacity = 0;
   PipelineStats pipelineStats;
 
   std::array<DeviceArray, kSplitArrayCount> split;
@@ -77,14 +80,19 @@ struct VulkanTracer::Impl {
                    std::to_string(needed));
     createPipeline();
     placeholder = context.createDeviceBuffer(16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
-    if (info.timestampValidBits > 0) {
-      auto qi = vk::make<VkQueryPoolCreateInfo>(VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO);
-      qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-      qi.queryCount = 2;
-      VkQueryPool q = VK_NULL_HANDLE;
-      vk::check(vkCreateQueryPool(context.device(), &qi, nullptr, &q), "vkCreateQueryPool");
-      queryPool = vk::UniqueQueryPool(context.device(), q);
-    }
+    ensureQueries(2);
+  }
+
+  // One timestamp before the first dispatch and one after each: grows the pool to `count` queries.
+  void ensureQueries(std::uint32_t count) {
+    if (context.info().timestampValidBits == 0 || (queryPool && queryCapacity >= count)) return;
+    auto qi = vk::make<VkQueryPoolCreateInfo>(VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO);
+    qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+    qi.queryCount = std::max(count, 2 * queryCapacity);
+    VkQueryPool q = VK_NULL_HANDLE;
+    vk::check(vkCreateQueryPool(context.device(), &qi, nullptr, &q), "vkCreateQueryPool");
+    queryPool = vk::UniqueQueryPool(context.device(), q);
+    queryCapacity = qi.queryCount;
   }
 
   void createPipeline() {
@@ -117,17 +125,9 @@ struct VulkanTracer::Impl {
 
     std::filesystem::path dir = options.cacheDir.empty() ? defaultPipelineCacheDir() : options.cacheDir;
     cache = std::make_unique<DiskPipelineCache>(context, dir);
-    vk::UniqueShaderModule module = context.createShaderModule(shadow_trace, sizeof(shadow_trace));
-    auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
-    ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
-    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    ci.stage.module = module.get();
-    ci.stage.pName = "main";
-    ci.layout = layout;
+    module = context.createShaderModule(shadow_trace, sizeof(shadow_trace));
     auto t0 = std::chrono::steady_clock::now();
-    VkPipeline p = VK_NULL_HANDLE;
-    vk::check(vkCreateComputePipelines(dev, cache->get(), 1, &ci, nullptr, &p), "vkCreateComputePipelines");
-    pipeline.pipeline = vk::UniquePipeline(dev, p);
+    pipeline.pipeline = makePipeline(false);
     pipelineStats.createMs = msSince(t0);
     pipelineStats.warmCache = cache->warm();
     pipelineStats.cacheFile = cache->file();
@@ -150,6 +150,31 @@ struct VulkanTracer::Impl {
     ai.descriptorSetCount = 1;
     ai.pSetLayouts = &setLayout;
     vk::check(vkAllocateDescriptorSets(dev, &ai, &descriptorSet), "vkAllocateDescriptorSets");
+  }
+
+  // The trace pipeline with the shader's VS_SPLIT_BINDINGS specialization constant set to `split`.
+  vk::UniquePipeline makePipeline(bool split) {
+    VkBool32 value = split ? VK_TRUE : VK_FALSE;
+    VkSpecializationMapEntry entry{0, 0, sizeof value};
+    VkSpecializationInfo spec{1, &entry, sizeof value, &value};
+    auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
+    ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
+    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    ci.stage.module = module.get();
+    ci.stage.pName = "main";
+    ci.stage.pSpecializationInfo = &spec;
+    ci.layout = pipeline.layout.get();
+    VkPipeline p = VK_NULL_HANDLE;
+    vk::check(vkCreateComputePipelines(context.device(), cache->get(), 1, &ci, nullptr, &p),
+              "vkCreateComputePipelines");
+    return vk::UniquePipeline(context.device(), p);
+  }
+
+  // Whether any split array spans more than one binding after upload().
+  bool splitBindings() const {
+    for (const DeviceArray& a : split)
+      if (a.buffers.size() > 1) return true;
+    return false;
   }
 
   std::uint64_t bindingLimit() const {
@@ -328,10 +353,9 @@ struct VulkanTracer::Impl {
     const VulkanDeviceInfo& info = context.info();
     std::uint32_t groupsX = (dispatchW + 7) / 8, groupsY = (dispatchH + 7) / 8;
     auto layerCount = static_cast<std::uint32_t>(views.size());
-    if (groupsX > info.maxWorkGroupCount[0] || groupsY > info.maxWorkGroupCount[1] ||
-        layerCount > info.maxWorkGroupCount[2])
-      throwRuntime("trace of " + std::to_string(dispatchW) + "x" + std::to_string(dispatchH) + "x" +
-                   std::to_string(layerCount) + " texels exceeds maxComputeWorkGroupCount on " + info.name);
+    if (groupsX > info.maxWorkGroupCount[0] || groupsY > info.maxWorkGroupCount[1])
+      throwRuntime("trace of " + std::to_string(dispatchW) + "x" + std::to_string(dispatchH) +
+                   " texels exceeds maxComputeWorkGroupCount on " + info.name);
 
     // The image only grows, so a later partial trace of a smaller batch reuses it.
     if (!image.image || image.extent.width < maxW || image.extent.height < maxH || image.layers < layerCount)
@@ -360,6 +384,12 @@ struct VulkanTracer::Impl {
       offset += VkDeviceSize(r.z - r.x) * VkDeviceSize(r.w - r.y) * sizeof(float);
     }
 
+    ensureQueries(layerCount + 1);
+    const bool useSplit = splitBindings();
+    if (useSplit && !splitPipeline) {
+      splitPipeline = makePipeline(true);
+      cache->save();
+    }
     TracePush push{};
     push.nodeCount = nodeCount;
     push.layerCount = layerCount;
@@ -372,16 +402,28 @@ struct VulkanTracer::Impl {
       before.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
       vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
                            VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
+      const std::uint32_t queries = layerCount + 1;
       if (queryPool) {
-        vkCmdResetQueryPool(cmd, queryPool.get(), 0, 2);
+        vkCmdResetQueryPool(cmd, queryPool.get(), 0, queries);
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queryPool.get(), 0);
       }
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline.get());
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+                        useSplit ? splitPipeline.get() : pipeline.pipeline.get());
       vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet, 0,
                               nullptr);
-      vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
-      vkCmdDispatch(cmd, groupsX, groupsY, layerCount);
-      if (queryPool) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queryPool.get(), 1);
+      // One dispatch per layer, sized to its own rectangle: no workgroups wasted on a batch's largest view,
+      // and a timestamp after each gives per-view GPU times (exact where dispatches run one after another,
+      // as on lavapipe; on other devices neighbouring dispatches may overlap a little).
+      for (std::uint32_t i = 0; i < layerCount; ++i) {
+        const glm::ivec4& r = views[i].rect;
+        std::uint32_t gx = (std::uint32_t(r.z - r.x) + 7) / 8, gy = (std::uint32_t(r.w - r.y) + 7) / 8;
+        if (gx > 0 && gy > 0) {
+          push.layerBase = i;
+          vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+          vkCmdDispatch(cmd, gx, gy, 1);
+        }
+        if (queryPool) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queryPool.get(), i + 1);
+      }
 
       auto toCopy = vk::make<VkImageMemoryBarrier>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER);
       toCopy.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
@@ -421,14 +463,19 @@ struct VulkanTracer::Impl {
     }
 
     if (queryPool) {
-      std::uint64_t ts[2] = {0, 0};
-      vk::check(vkGetQueryPoolResults(context.device(), queryPool.get(), 0, 2, sizeof ts, ts, sizeof(std::uint64_t),
+      std::vector<std::uint64_t> ts(layerCount + 1, 0);
+      vk::check(vkGetQueryPoolResults(context.device(), queryPool.get(), 0, layerCount + 1,
+                                      ts.size() * sizeof(std::uint64_t), ts.data(), sizeof(std::uint64_t),
                                       VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
                 "vkGetQueryPoolResults");
       std::uint64_t mask = info.timestampValidBits >= 64 ? ~std::uint64_t(0)
                                                          : (std::uint64_t(1) << info.timestampValidBits) - 1;
-      std::uint64_t ticks = ((ts[1] & mask) - (ts[0] & mask)) & mask;
-      stats.gpuMs = double(ticks) * double(info.timestampPeriodNs) * 1e-6;
+      auto ms = [&](std::uint64_t a, std::uint64_t b) {
+        return double(((b & mask) - (a & mask)) & mask) * double(info.timestampPeriodNs) * 1e-6;
+      };
+      stats.gpuMs = ms(ts[0], ts[layerCount]);
+      stats.viewGpuMs.resize(layerCount);
+      for (std::uint32_t i = 0; i < layerCount; ++i) stats.viewGpuMs[i] = ms(ts[i], ts[i + 1]);
     }
     stats.wallMs = msSince(t0);
     double ms = stats.gpuMs > 0.0 ? stats.gpuMs : stats.wallMs;

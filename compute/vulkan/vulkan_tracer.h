@@ -55,6 +55,7 @@ inline constexpr int kMaxBuffersPerArray = 4;
 struct TraceStats {
   std::uint64_t rays = 0;      // texels traced (sum of the views' rectangle areas)
   double gpuMs = -1.0;         // dispatch time from GPU timestamps; < 0 when the queue has none
+  std::vector<double> viewGpuMs;  // per view (views order), from timestamps; empty when the queue has none
   double wallMs = 0.0;         // host time of the whole call: descriptor updates, dispatch, readback
   double mraysPerSecond = 0.0; // from gpuMs when known, else from wallMs
 };
@@ -85,6 +86,8 @@ class VulkanTracer {
 
   // Traces views[i]'s texel rectangle into layers[i] (layers resized to views.size(); a layer whose size
   // differs from its view is resized and zero-filled; texels outside the rectangle keep their values).
+  // One submission and one readback for the whole batch, one dispatch per view (timed per view when the
+  // queue has timestamps); the pipeline that reads split bindings is used only when upload() split an array.
   // Preconditions: upload() was called; views[i].info.xy > 0; 0 <= rect.x0 <= rect.x1 <= width, same for y.
   // Throws vs::Error(BadInput) when a view breaks them.
   TraceStats trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers);

@@ -3,8 +3,12 @@
 #include <array>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+
+#include <gtest/gtest.h>
 #include <stdexcept>
 #include <sys/wait.h>
+#include <unistd.h>
 
 namespace vs::test {
 
@@ -23,7 +27,8 @@ std::filesystem::path sharedAssets() {
 }
 
 std::filesystem::path scratchDir(const std::string& name) {
-  auto dir = std::filesystem::temp_directory_path() / "voxshadow-tests" / name;
+  // ctest runs test cases of one executable in parallel processes: the process id keeps them apart.
+  auto dir = std::filesystem::temp_directory_path() / "voxshadow-tests" / (name + "-" + std::to_string(getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
@@ -39,6 +44,30 @@ int runCommand(const std::string& command, std::string& output) {
   while (std::fgets(buffer.data(), buffer.size(), pipe)) output += buffer.data();
   int status = pclose(pipe);
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+int runCli(const std::string& args, std::string& output) { return runCommand(cliPath() + " " + args, output); }
+
+std::filesystem::path unwritableDir(const std::filesystem::path& scratch) {
+  namespace fs = std::filesystem;
+  fs::permissions(scratch, fs::perms::owner_read | fs::perms::owner_exec);
+  const fs::path probe = scratch / "probe";
+  if (!std::ofstream(probe)) return scratch;
+  fs::remove(probe);
+  fs::permissions(scratch, fs::perms::owner_all);
+  const fs::path sys = "/sys";
+  if (fs::is_directory(sys) && !std::ofstream(sys / "voxshadow-probe")) return sys;
+  ADD_FAILURE() << "no directory refuses new files to this process";
+  return scratch;
+}
+
+std::vector<std::string> leftovers(const std::filesystem::path& dir, const std::string& stem) {
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    std::string n = e.path().filename().string();
+    if (n.find(stem) != std::string::npos) names.push_back(n);
+  }
+  return names;
 }
 
 }  // namespace vs::test

@@ -1,0 +1,805 @@
+#include "compute/cpu/lane_tracer.h"
+
+#include <immintrin.h>
+
+#include <bit>
+#include <cstdint>
+#include <limits>
+#include <memory>
+
+#include "compute/cpu/tile_rays.h"
+#include "voxel/error.h"
+
+namespace vs {
+
+bool laneTracerSupported(const SceneData& scene) {
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+  // Occupancy words are gathered with signed 32-bit indices.
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("popcnt") &&
+         scene.occupancy.size() < std::size_t(std::numeric_limits<std::int32_t>::max());
+#else
+  (void)scene;
+  return false;
+#endif
+}
+
+namespace {
+
+// The brick level of LaneTables, from its sector codes; left empty when too large.
+void buildBrickCodes(const SceneData& scene, LaneTables& tables, std::size_t maxBrickCodes) {
+  std::size_t total = tables.sectorCodes.size() * 64u;
+  if (total > maxBrickCodes) return;
+  tables.brickCodes.reserve(total);
+  for (std::size_t o = 0; o < scene.objects.size(); ++o) {
+    const gpu::ObjectRecord& obj = scene.objects[o];
+    tables.objectBrickBase.push_back(std::int32_t(tables.brickCodes.size()));
+    const int sdx = 4 * obj.regionDims.x, sdy = 4 * obj.regionDims.y, sdz = 4 * obj.regionDims.z;
+    const int bdx = 4 * sdx, bdy = 4 * sdy;
+    std::size_t base = tables.brickCodes.size();
+    tables.brickCodes.resize(base + std::size_t(sdx) * sdy * sdz * 64u);
+    for (int sz = 0; sz < sdz; ++sz)
+      for (int sy = 0; sy < sdy; ++sy)
+        for (int sx = 0; sx < sdx; ++sx) {
+          std::int32_t code =
+              tables.sectorCodes[std::size_t(tables.objectBase[o]) + std::size_t(sx + sdx * (sy + sdy * sz))];
+          const gpu::Sector* sector = code >= 0 ? &scene.sectors[std::size_t(code)] : nullptr;
+          for (std::uint32_t bit = 0; bit < 64u; ++bit) {
+            int a = int(bit & 3u), b = int((bit >> 2) & 3u), c = int(bit >> 4);
+            std::size_t index = base + std::size_t((4 * sx + a) + bdx * ((4 * sy + b) + bdy * (4 * sz + c)));
+            std::int32_t value = code;
+            if (sector) {
+              std::uint32_t lo = sector->brickMask.x, hi = sector->brickMask.y;
+              bool present = ((bit < 32u ? lo : hi) >> (bit & 31u)) & 1u;
+              std::uint32_t rank = bit < 32u ? std::uint32_t(std::popcount(lo & ((1u << bit) - 1u)))
+                                             : std::uint32_t(std::popcount(lo)) +
+                                                   std::uint32_t(std::popcount(hi & ((1u << (bit - 32u)) - 1u)));
+              value = -gpu::VS_BRICK_LOG2;
+              if (present) {
+                const gpu::Brick& brick = scene.bricks[std::size_t(obj.bases.w) + sector->firstBrick + rank];
+                std::uint64_t word =
+                    std::uint64_t(obj.bases2.x) + std::uint64_t(brick.occupancy) * gpu::VS_OCCUPANCY_WORDS;
+                bool consistent =
+                    brick.occupancy == gpu::VS_FULL_BRICK || word + gpu::VS_OCCUPANCY_WORDS <= scene.occupancy.size();
+                for (std::uint32_t cell = 0; consistent && brick.occupancy != gpu::VS_FULL_BRICK && cell < 64u;
+                     ++cell) {
+                  bool maskBit = (((cell < 32u ? brick.cellMask.x : brick.cellMask.y) >> (cell & 31u)) & 1u) != 0u;
+                  bool anyVoxel = ((scene.occupancy[word + cell / 4u] >> ((cell & 3u) * 8u)) & 0xffu) != 0u;
+                  consistent = maskBit == anyVoxel;
+                }
+                bool full = brick.occupancy == gpu::VS_FULL_BRICK;
+                if (!consistent || (!full && word > std::uint64_t(std::numeric_limits<std::int32_t>::max() - 16))) {
+                  tables.brickCodes.clear();
+                  tables.objectBrickBase.clear();
+                  return;
+                }
+                value = full ? kLaneFullBrick : std::int32_t(word);
+              }
+            }
+            tables.brickCodes[index] = value;
+          }
+        }
+  }
+}
+
+}  // namespace
+
+bool buildLaneTables(const SceneData& scene, LaneTables& tables, std::size_t maxBrickCodes) {
+  tables.brickCodes.clear();
+  tables.objectBrickBase.clear();
+  tables.sectorCodes.clear();
+  tables.objectBase.clear();
+  std::size_t total = 0;
+  for (const gpu::ObjectRecord& obj : scene.objects)
+    total += std::size_t(obj.regionDims.x) * std::size_t(obj.regionDims.y) * std::size_t(obj.regionDims.z) * 64u;
+  if (total > kMaxLaneSectorCodes) return false;
+  tables.sectorCodes.reserve(total);
+  for (const gpu::ObjectRecord& obj : scene.objects) {
+    tables.objectBase.push_back(std::int32_t(tables.sectorCodes.size()));
+    const int dx = obj.regionDims.x, dy = obj.regionDims.y, dz = obj.regionDims.z;
+    const int sdx = 4 * dx, sdy = 4 * dy;
+    std::size_t base = tables.sectorCodes.size();
+    tables.sectorCodes.resize(base + std::size_t(dx) * dy * dz * 64u, -gpu::VS_REGION_LOG2);
+    for (int rz = 0; rz < dz; ++rz)
+      for (int ry = 0; ry < dy; ++ry)
+        for (int rx = 0; rx < dx; ++rx) {
+          std::uint32_t slot = scene.regionTable[obj.bases.x + std::uint32_t(rx + dx * (ry + dy * rz))];
+          if (slot == gpu::VS_EMPTY_SLOT) continue;
+          const gpu::Region& region = scene.regions[obj.bases.y + slot];
+          for (std::uint32_t bit = 0; bit < 64u; ++bit) {
+            int a = int(bit & 3u), b = int((bit >> 2) & 3u), c = int(bit >> 4);
+            std::size_t index = base + std::size_t((4 * rx + a) + sdx * ((4 * ry + b) + sdy * (4 * rz + c)));
+            std::uint32_t lo = region.sectorMask.x, hi = region.sectorMask.y;
+            bool present = ((bit < 32u ? lo : hi) >> (bit & 31u)) & 1u;
+            if (!present) {
+              tables.sectorCodes[index] = -gpu::VS_SECTOR_LOG2;
+              continue;
+            }
+            std::uint32_t rank = bit < 32u ? std::uint32_t(std::popcount(lo & ((1u << bit) - 1u)))
+                                           : std::uint32_t(std::popcount(lo)) +
+                                                 std::uint32_t(std::popcount(hi & ((1u << (bit - 32u)) - 1u)));
+            std::uint64_t sector = std::uint64_t(obj.bases.z) + region.firstSector + rank;
+            if (sector > std::uint64_t(std::numeric_limits<std::int32_t>::max() / 4)) {
+              tables.sectorCodes.clear();
+              tables.objectBase.clear();
+              return false;
+            }
+            tables.sectorCodes[index] = std::int32_t(sector);
+          }
+        }
+  }
+  buildBrickCodes(scene, tables, maxBrickCodes);
+  return true;
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#pragma GCC push_options
+#pragma GCC target("avx2,popcnt")
+
+namespace {
+
+constexpr int kLanes = 8;
+static_assert(sizeof(gpu::Sector) == 16 && offsetof(gpu::Sector, firstBrick) == 8,
+              "sectors are gathered as four words");
+
+// The walk states of eight rays, one per lane, in structure-of-arrays form (the fields of ObjectWalk).
+struct alignas(32) Lanes {
+  float o[3][kLanes], d[3][kLanes], invD[3][kLanes];
+  int v[3][kLanes];
+  float tEnter[kLanes], t1[kLanes];
+  int stepsLeft[kLanes];
+  int voxelMin[3][kLanes], voxelMax[3][kLanes];
+  int dPositive[3][kLanes];  // all ones where d > 0
+  int dNonZero[3][kLanes];   // all ones where d != 0
+  int live[kLanes];          // all ones while the lane walks
+  // Between the parts of a step (beginStepLanes, lookupLanes, advanceLanes): the voxel's cell log2, whether
+  // it is solid, and which lanes walk this step.
+  int stepLog2[kLanes], stepHit[kLanes], stepWalking[kLanes];
+  int stepCode[kLanes];  // the voxel's brick code (LaneTables::brickCodes), read before lookupLanes
+  // The object's sector-code table: first code, sector coordinate of code 0, codes per row and per layer.
+  int sectorBase[kLanes];
+  int sectorOrigin[3][kLanes];
+  int sectorDims[2][kLanes];
+  int brickBase[kLanes];  // the object's first brick
+  // The object's brick-code table (when LaneTables has one), laid out like the sector codes.
+  int brickCodeBase[kLanes];
+  int brickOrigin[3][kLanes];
+  int brickDims[2][kLanes];
+  int occupancyWordBase[kLanes];  // the object's first occupancy word
+  // The current sector's brick mask and global first brick (read every step).
+  std::uint32_t brickMask[2][kLanes];
+  std::uint32_t firstBrick[kLanes];
+  // Cached brick: coordinate, cell mask, whether it is full, its first occupancy word.
+  int brick[3][kLanes];
+  std::uint32_t cellMask[2][kLanes];
+  int fullBrick[kLanes];
+  int occupancyBase[kLanes];
+};
+
+// What vsRankBelow and vsChildBit compute, for the scalar refills.
+inline std::uint32_t rankBelow(std::uint32_t lo, std::uint32_t hi, std::uint32_t bit) {
+  if (bit < 32u) return std::uint32_t(__builtin_popcount(lo & ((1u << bit) - 1u)));
+  return std::uint32_t(__builtin_popcount(lo)) + std::uint32_t(__builtin_popcount(hi & ((1u << (bit - 32u)) - 1u)));
+}
+
+inline std::uint32_t childBit(int x, int y, int z, int log2Child) {
+  return std::uint32_t(((x >> log2Child) & 3) + 4 * ((y >> log2Child) & 3) + 16 * ((z >> log2Child) & 3));
+}
+
+inline bool testBit(std::uint32_t lo, std::uint32_t hi, std::uint32_t bit) {
+  std::uint32_t word = bit < 32u ? lo : hi;
+  return ((word >> (bit & 31u)) & 1u) != 0u;
+}
+
+// The brick lookup of vsWalkCellLog2 for lane i (its brick is present and the cache missed).
+void refillBrick(const gpu::SceneArrays& arrays, Lanes& L, int i) {
+  int x = L.v[0][i], y = L.v[1][i], z = L.v[2][i];
+  L.brick[0][i] = x >> gpu::VS_BRICK_LOG2;
+  L.brick[1][i] = y >> gpu::VS_BRICK_LOG2;
+  L.brick[2][i] = z >> gpu::VS_BRICK_LOG2;
+  std::uint32_t brickBit = childBit(x, y, z, gpu::VS_BRICK_LOG2);
+  const gpu::Brick& b = arrays.bricks[L.firstBrick[i] + rankBelow(L.brickMask[0][i], L.brickMask[1][i], brickBit)];
+  L.cellMask[0][i] = b.cellMask.x;
+  L.cellMask[1][i] = b.cellMask.y;
+  L.fullBrick[i] = b.occupancy == gpu::VS_FULL_BRICK ? -1 : 0;
+  L.occupancyBase[i] = b.occupancy == gpu::VS_FULL_BRICK
+                           ? 0
+                           : int(std::uint32_t(L.occupancyWordBase[i]) + b.occupancy * gpu::VS_OCCUPANCY_WORDS);
+}
+
+// Places a walk begun by vsObjectWalkBegin in lane i, with empty caches.
+void loadLane(Lanes& L, int i, const gpu::SceneArrays::ObjectWalk& w, const LaneTables& tables,
+              std::uint32_t objectIndex) {
+  for (int a = 0; a < 3; ++a) {
+    L.o[a][i] = w.o[a];
+    L.d[a][i] = w.d[a];
+    L.invD[a][i] = w.invD[a];
+    L.v[a][i] = w.v[a];
+    L.voxelMin[a][i] = w.obj.voxelMin[a];
+    L.voxelMax[a][i] = w.obj.voxelMax[a];
+    L.dPositive[a][i] = w.d[a] > 0.0f ? -1 : 0;
+    L.dNonZero[a][i] = w.d[a] != 0.0f ? -1 : 0;
+    L.sectorOrigin[a][i] = 4 * w.obj.regionOrigin[a];
+    L.brickOrigin[a][i] = 16 * w.obj.regionOrigin[a];
+    L.brick[a][i] = gpu::VS_NO_CELL;
+  }
+  L.tEnter[i] = w.tEnter;
+  L.t1[i] = w.t1;
+  L.stepsLeft[i] = w.stepsLeft;
+  L.sectorBase[i] = tables.objectBase[objectIndex];
+  L.sectorDims[0][i] = 4 * w.obj.regionDims.x;
+  L.sectorDims[1][i] = 4 * w.obj.regionDims.y;
+  L.brickBase[i] = int(w.obj.bases.w);
+  L.brickCodeBase[i] = tables.brickCodes.empty() ? 0 : tables.objectBrickBase[objectIndex];
+  L.brickDims[0][i] = 16 * w.obj.regionDims.x;
+  L.brickDims[1][i] = 16 * w.obj.regionDims.y;
+  L.occupancyWordBase[i] = int(w.obj.bases2.x);
+  L.live[i] = -1;
+}
+
+inline __m256i load(const int* p) { return _mm256_load_si256(reinterpret_cast<const __m256i*>(p)); }
+inline __m256i load(const std::uint32_t* p) { return _mm256_load_si256(reinterpret_cast<const __m256i*>(p)); }
+inline void store(int* p, __m256i x) { _mm256_store_si256(reinterpret_cast<__m256i*>(p), x); }
+inline __m256i select(__m256i no, __m256i yes, __m256i mask) { return _mm256_blendv_epi8(no, yes, mask); }
+inline int laneMask(__m256i m) { return _mm256_movemask_ps(_mm256_castsi256_ps(m)); }
+
+// One vsObjectWalkStep for every live lane runs in three parts, each issued for every group in turn so that
+// the groups' gathers overlap: beginStepLanes (the step bound and the brick-code gather), lookupLanes (the
+// rest of vsWalkCellLog2) and advanceLanes (the move past the empty cell).
+void beginStepLanes(const LaneTables& tables, Lanes& L) {
+  const __m256i one = _mm256_set1_epi32(1);
+  const __m256i live = load(L.live);
+  // if (w.stepsLeft <= 0) return VS_WALK_MISS; w.stepsLeft -= 1;
+  __m256i steps = load(L.stepsLeft);
+  __m256i exhausted = _mm256_and_si256(live, _mm256_cmpgt_epi32(one, steps));
+  store(L.stepsLeft, _mm256_sub_epi32(steps, one));
+  __m256i walking = _mm256_andnot_si256(exhausted, live);
+  store(L.stepWalking, walking);
+  if (tables.brickCodes.empty()) return;
+  __m256i rel[3];
+  for (int a = 0; a < 3; ++a)
+    rel[a] = _mm256_sub_epi32(_mm256_srai_epi32(load(L.v[a]), gpu::VS_BRICK_LOG2), load(L.brickOrigin[a]));
+  __m256i codeIndex = _mm256_add_epi32(
+      load(L.brickCodeBase),
+      _mm256_add_epi32(rel[0],
+                       _mm256_mullo_epi32(load(L.brickDims[0]),
+                                          _mm256_add_epi32(rel[1], _mm256_mullo_epi32(load(L.brickDims[1]), rel[2])))));
+  store(L.stepCode,
+        _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), tables.brickCodes.data(), codeIndex, walking, 4));
+}
+
+// The rest of vsWalkCellLog2 (the occupancy gather).
+void lookupLanes(const gpu::SceneArrays& arrays, const LaneTables& tables, Lanes& L) {
+  const __m256i zero = _mm256_setzero_si256();
+  const __m256i one = _mm256_set1_epi32(1);
+  const __m256i three = _mm256_set1_epi32(3);
+  const __m256i walking = load(L.stepWalking);
+
+  __m256i v[3];
+  for (int a = 0; a < 3; ++a) v[a] = load(L.v[a]);
+  auto child = [&](int log2Child) {
+    __m256i x = _mm256_and_si256(_mm256_srai_epi32(v[0], log2Child), three);
+    __m256i y = _mm256_and_si256(_mm256_srai_epi32(v[1], log2Child), three);
+    __m256i z = _mm256_and_si256(_mm256_srai_epi32(v[2], log2Child), three);
+    return _mm256_add_epi32(x, _mm256_add_epi32(_mm256_slli_epi32(y, 2), _mm256_slli_epi32(z, 4)));
+  };
+  auto maskBit = [&](const std::uint32_t* lo, const std::uint32_t* hi, __m256i bit) {
+    __m256i word = select(load(lo), load(hi), _mm256_cmpgt_epi32(bit, _mm256_set1_epi32(31)));
+    return _mm256_cmpeq_epi32(
+        _mm256_and_si256(_mm256_srlv_epi32(word, _mm256_and_si256(bit, _mm256_set1_epi32(31))), one), one);
+  };
+
+  // vsWalkCellLog2 up to the brick: whether the voxel's brick is present, else the empty cell's log2; the
+  // brick's cell mask, fullness and first occupancy word.
+  __m256i brickPresent, emptyLog2, fullBrick, occupancyBase, brickCode;
+  __m256i cellLo = zero, cellHi = zero;  // read on the sector level only
+  const bool brickLevel = !tables.brickCodes.empty();
+  if (brickLevel) {
+    brickCode = load(L.stepCode);
+    fullBrick = _mm256_and_si256(walking, _mm256_cmpeq_epi32(brickCode, _mm256_set1_epi32(kLaneFullBrick)));
+    brickPresent =
+        _mm256_or_si256(fullBrick, _mm256_and_si256(walking, _mm256_cmpgt_epi32(brickCode, _mm256_set1_epi32(-1))));
+    emptyLog2 = _mm256_sub_epi32(zero, brickCode);
+    occupancyBase = brickCode;
+  } else {
+    // The sector's code (region empty, sector empty, or its index) from the dense table, then the brick from
+    // the lane's cache.
+    __m256i sectorPresent, sectorLog2;
+    __m256i sectorRel[3];
+    for (int a = 0; a < 3; ++a) {
+      sectorRel[a] = _mm256_sub_epi32(_mm256_srai_epi32(v[a], gpu::VS_SECTOR_LOG2), load(L.sectorOrigin[a]));
+    }
+    __m256i codeIndex = _mm256_add_epi32(
+        load(L.sectorBase),
+        _mm256_add_epi32(sectorRel[0],
+                         _mm256_mullo_epi32(
+                             load(L.sectorDims[0]),
+                             _mm256_add_epi32(sectorRel[1], _mm256_mullo_epi32(load(L.sectorDims[1]), sectorRel[2])))));
+    __m256i sectorCode = _mm256_mask_i32gather_epi32(zero, tables.sectorCodes.data(), codeIndex, walking, 4);
+    sectorPresent = _mm256_and_si256(walking, _mm256_cmpgt_epi32(sectorCode, _mm256_set1_epi32(-1)));
+    sectorLog2 = _mm256_sub_epi32(zero, sectorCode);
+    {
+      const int* sectors = reinterpret_cast<const int*>(arrays.sectors);
+      __m256i field =
+          _mm256_slli_epi32(sectorCode, 2);  // a Sector is four words: brickMask.x, .y, firstBrick, reserved
+      store(reinterpret_cast<int*>(L.brickMask[0]),
+            _mm256_mask_i32gather_epi32(zero, sectors, field, sectorPresent, 4));
+      store(reinterpret_cast<int*>(L.brickMask[1]),
+            _mm256_mask_i32gather_epi32(zero, sectors, _mm256_add_epi32(field, one), sectorPresent, 4));
+      __m256i first =
+          _mm256_mask_i32gather_epi32(zero, sectors, _mm256_add_epi32(field, _mm256_set1_epi32(2)), sectorPresent, 4);
+      store(reinterpret_cast<int*>(L.firstBrick), _mm256_add_epi32(first, load(L.brickBase)));
+    }
+
+    brickPresent = _mm256_and_si256(sectorPresent, maskBit(L.brickMask[0], L.brickMask[1], child(gpu::VS_BRICK_LOG2)));
+    __m256i sameBrick = brickPresent;
+    for (int a = 0; a < 3; ++a)
+      sameBrick = _mm256_and_si256(sameBrick,
+                                   _mm256_cmpeq_epi32(_mm256_srai_epi32(v[a], gpu::VS_BRICK_LOG2), load(L.brick[a])));
+    for (int m = laneMask(_mm256_andnot_si256(sameBrick, brickPresent)); m != 0; m &= m - 1)
+      refillBrick(arrays, L, __builtin_ctz(unsigned(m)));
+    fullBrick = _mm256_and_si256(brickPresent, load(L.fullBrick));
+    cellLo = load(L.cellMask[0]);
+    cellHi = load(L.cellMask[1]);
+    occupancyBase = load(L.occupancyBase);
+    emptyLog2 = select(sectorLog2, _mm256_set1_epi32(gpu::VS_BRICK_LOG2), sectorPresent);
+  }
+  __m256i cellBit = child(gpu::VS_CELL_LOG2);
+  __m256i voxelBit =
+      _mm256_add_epi32(_mm256_slli_epi32(cellBit, 3),
+                       _mm256_add_epi32(_mm256_and_si256(v[0], one),
+                                        _mm256_add_epi32(_mm256_slli_epi32(_mm256_and_si256(v[1], one), 1),
+                                                         _mm256_slli_epi32(_mm256_and_si256(v[2], one), 2))));
+  __m256i wordIndex = _mm256_add_epi32(occupancyBase, _mm256_srli_epi32(voxelBit, 5));
+  __m256i cellPresent, word;
+  if (brickLevel) {
+    // The cell's byte of the occupancy line stands for its mask bit (checked when the table was built).
+    __m256i partial = _mm256_andnot_si256(fullBrick, brickPresent);
+    word = _mm256_mask_i32gather_epi32(zero, reinterpret_cast<const int*>(arrays.occupancy), wordIndex, partial, 4);
+    __m256i cellByte = _mm256_and_si256(_mm256_srlv_epi32(word, _mm256_slli_epi32(_mm256_and_si256(cellBit, three), 3)),
+                                        _mm256_set1_epi32(0xff));
+    cellPresent = _mm256_andnot_si256(_mm256_cmpeq_epi32(cellByte, zero), partial);
+  } else {
+    __m256i cellWord = select(cellLo, cellHi, _mm256_cmpgt_epi32(cellBit, _mm256_set1_epi32(31)));
+    __m256i cellBitSet = _mm256_cmpeq_epi32(
+        _mm256_and_si256(_mm256_srlv_epi32(cellWord, _mm256_and_si256(cellBit, _mm256_set1_epi32(31))), one), one);
+    cellPresent = _mm256_andnot_si256(fullBrick, _mm256_and_si256(brickPresent, cellBitSet));
+    word = _mm256_mask_i32gather_epi32(zero, reinterpret_cast<const int*>(arrays.occupancy), wordIndex, cellPresent, 4);
+  }
+  __m256i voxelSolid = _mm256_cmpeq_epi32(
+      _mm256_and_si256(_mm256_srlv_epi32(word, _mm256_and_si256(voxelBit, _mm256_set1_epi32(31))), one), one);
+  __m256i hit = _mm256_or_si256(fullBrick, _mm256_and_si256(cellPresent, voxelSolid));
+  __m256i log2Size = select(emptyLog2, _mm256_set1_epi32(gpu::VS_CELL_LOG2), brickPresent);
+  log2Size = select(log2Size, zero, cellPresent);
+  store(L.stepLog2, log2Size);
+  store(L.stepHit, hit);
+}
+
+// The second half: moves every walking lane past its empty cell. Returns the lanes that finished (bit i) and
+// sets `hits` to those of them that stopped on a solid voxel (w.v, w.tEnter hold the hit, as in the reference).
+int advanceLanes(Lanes& L, int& hits) {
+  const __m256i zero = _mm256_setzero_si256();
+  const __m256i one = _mm256_set1_epi32(1);
+  const __m256i live = load(L.live);
+  const __m256i walking = load(L.stepWalking);
+  const __m256i hit = load(L.stepHit);
+  const __m256i log2Size = load(L.stepLog2);
+  __m256i v[3];
+  for (int a = 0; a < 3; ++a) v[a] = load(L.v[a]);
+
+  // The exit of the empty cell: the smallest exact t over the axes, the lowest axis on ties.
+  __m256i size = _mm256_sllv_epi32(one, log2Size);
+  __m256i cellMin[3], dPositive[3], dNonZero[3];
+  __m256 tExit = _mm256_set1_ps(gpu::VS_T_INFINITY);
+  __m256i exitAxis = _mm256_set1_epi32(-1);
+  for (int a = 0; a < 3; ++a) {
+    cellMin[a] = _mm256_andnot_si256(_mm256_sub_epi32(size, one), v[a]);
+    dPositive[a] = load(L.dPositive[a]);
+    dNonZero[a] = load(L.dNonZero[a]);
+    __m256i bound = select(cellMin[a], _mm256_add_epi32(cellMin[a], size), dPositive[a]);
+    __m256 ta =
+        _mm256_mul_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(bound), _mm256_load_ps(L.o[a])), _mm256_load_ps(L.invD[a]));
+    __m256i closer = _mm256_and_si256(dNonZero[a], _mm256_castps_si256(_mm256_cmp_ps(ta, tExit, _CMP_LT_OQ)));
+    tExit = _mm256_blendv_ps(tExit, ta, _mm256_castsi256_ps(closer));
+    exitAxis = select(exitAxis, _mm256_set1_epi32(a), closer);
+  }
+  __m256i leaves = _mm256_or_si256(_mm256_cmpeq_epi32(exitAxis, _mm256_set1_epi32(-1)),
+                                   _mm256_castps_si256(_mm256_cmp_ps(tExit, _mm256_load_ps(L.t1), _CMP_GE_OQ)));
+  // tExit = max(tExit, w.tEnter): glm's max(x, y) is (x < y) ? y : x, which is maxps(y, x).
+  __m256 tEnter = _mm256_load_ps(L.tEnter);
+  tExit = _mm256_max_ps(tEnter, tExit);
+
+  __m256i next[3];
+  for (int a = 0; a < 3; ++a) {
+    __m256 p = _mm256_add_ps(_mm256_load_ps(L.o[a]), _mm256_mul_ps(_mm256_load_ps(L.d[a]), tExit));
+    __m256i isExit = _mm256_cmpeq_epi32(exitAxis, _mm256_set1_epi32(a));
+    __m256i exitCoord = select(_mm256_sub_epi32(cellMin[a], one), _mm256_add_epi32(cellMin[a], size), dPositive[a]);
+    // clamp(floor(p), lo, hi) is min(max(x, lo), hi) with glm's operand order: maxps(lo, x), minps(hi, .).
+    __m256 lo = _mm256_cvtepi32_ps(cellMin[a]);
+    __m256 hi = _mm256_cvtepi32_ps(_mm256_sub_epi32(_mm256_add_epi32(cellMin[a], size), one));
+    __m256 f = _mm256_round_ps(p, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    __m256i c = _mm256_cvttps_epi32(_mm256_min_ps(hi, _mm256_max_ps(lo, f)));
+    __m256i moved = select(_mm256_min_epi32(c, v[a]), _mm256_max_epi32(c, v[a]), dPositive[a]);
+    next[a] = select(select(v[a], moved, dNonZero[a]), exitCoord, isExit);
+    __m256i outside = _mm256_or_si256(_mm256_cmpgt_epi32(load(L.voxelMin[a]), next[a]),
+                                      _mm256_cmpeq_epi32(_mm256_cmpgt_epi32(load(L.voxelMax[a]), next[a]), zero));
+    leaves = _mm256_or_si256(leaves, _mm256_and_si256(isExit, outside));
+  }
+
+  __m256i continuing = _mm256_andnot_si256(_mm256_or_si256(hit, leaves), walking);
+  for (int a = 0; a < 3; ++a) store(L.v[a], select(v[a], next[a], continuing));
+  _mm256_store_ps(L.tEnter, _mm256_blendv_ps(tEnter, tExit, _mm256_castsi256_ps(continuing)));
+  hits = laneMask(hit);
+  return laneMask(_mm256_andnot_si256(continuing, live));
+}
+
+// glm's scalar min(x, y) is (y < x) ? y : x and max(x, y) is (x < y) ? y : x: minps(y, x) and maxps(y, x).
+inline __m256 glmMin(__m256 x, __m256 y) { return _mm256_min_ps(y, x); }
+inline __m256 glmMax(__m256 x, __m256 y) { return _mm256_max_ps(y, x); }
+inline __m256 bcast(float f) { return _mm256_set1_ps(f); }
+
+// The scene of a batch: a BVH that is one leaf holding one instance (a single object, as baked and benched).
+struct SingleInstance {
+  bool enabled = false;
+  std::uint32_t instance = 0;
+  std::uint32_t objectIndex = 0;
+};
+
+SingleInstance singleInstance(const gpu::SceneArrays& arrays) {
+  SingleInstance one;
+  if (arrays.nodeCount != 1u || arrays.nodes[0].count != 1u) return one;
+  one.enabled = true;
+  one.instance = arrays.instanceIndices[arrays.nodes[0].rightOrFirst];
+  one.objectIndex = arrays.instances[one.instance].info.x;
+  return one;
+}
+
+// vsBoxEntry for eight rays: the same operations per lane, tMin = 0.
+__m256 boxEntryLanes(glm::vec3 bmin, glm::vec3 bmax, const __m256 o[3], const __m256 d[3], __m256 tMax) {
+  __m256 t0 = _mm256_setzero_ps();
+  __m256 t1 = tMax;
+  __m256 outside = _mm256_setzero_ps();
+  for (int a = 0; a < 3; ++a) {
+    __m256 zeroD = _mm256_cmp_ps(d[a], _mm256_setzero_ps(), _CMP_EQ_OQ);
+    __m256 lo = bcast(bmin[a]), hi = bcast(bmax[a]);
+    outside = _mm256_or_ps(outside, _mm256_and_ps(zeroD, _mm256_or_ps(_mm256_cmp_ps(o[a], lo, _CMP_LT_OQ),
+                                                                      _mm256_cmp_ps(o[a], hi, _CMP_GT_OQ))));
+    __m256 inv = _mm256_div_ps(bcast(1.0f), d[a]);
+    __m256 tLo = _mm256_mul_ps(_mm256_sub_ps(lo, o[a]), inv);
+    __m256 tHi = _mm256_mul_ps(_mm256_sub_ps(hi, o[a]), inv);
+    t0 = _mm256_blendv_ps(glmMax(t0, glmMin(tLo, tHi)), t0, zeroD);
+    t1 = _mm256_blendv_ps(glmMin(t1, glmMax(tLo, tHi)), t1, zeroD);
+  }
+  __m256 ok = _mm256_andnot_ps(outside, _mm256_cmp_ps(t0, t1, _CMP_LE_OQ));
+  return _mm256_blendv_ps(bcast(gpu::VS_T_INFINITY), t0, ok);
+}
+
+// Eight texel rays of one view through a single-instance scene, set up as vsViewRay, collectCandidates,
+// beginNextWalk and vsObjectWalkBegin do for each, lane by lane with the same operations. Rays with a walk
+// are written to rays[i] (RayState with its one candidate, and the begun walk); walks[i] says which.
+void setupBatch(const gpu::SceneArrays& arrays, const SingleInstance& one, const gpu::TraceView& view, const int* xs,
+                const int* ys, tile::RayState* const* rays, bool* walks) {
+  alignas(32) float fx[kLanes], fy[kLanes];
+  for (int i = 0; i < kLanes; ++i) fx[i] = float(xs[i]), fy[i] = float(ys[i]);
+  __m256 nx = _mm256_sub_ps(
+      _mm256_mul_ps(_mm256_div_ps(_mm256_add_ps(_mm256_load_ps(fx), bcast(0.5f)), bcast(float(view.info.x))),
+                    bcast(2.0f)),
+      bcast(1.0f));
+  __m256 ny = _mm256_sub_ps(
+      _mm256_mul_ps(_mm256_div_ps(_mm256_add_ps(_mm256_load_ps(fy), bcast(0.5f)), bcast(float(view.info.y))),
+                    bcast(2.0f)),
+      bcast(1.0f));
+  const glm::mat4& m = view.invViewProj;
+  // vsMulPoint: m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3] * p.w, component by component.
+  auto mulPoint = [&](float pz, __m256 h[4]) {
+    for (int c = 0; c < 4; ++c)
+      h[c] = _mm256_add_ps(
+          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bcast(m[0][c]), nx), _mm256_mul_ps(bcast(m[1][c]), ny)),
+                        _mm256_mul_ps(bcast(m[2][c]), bcast(pz))),
+          _mm256_mul_ps(bcast(m[3][c]), bcast(1.0f)));
+  };
+  __m256 farH[4], farP[3], o[3], d[3], tMax;
+  mulPoint(1.0f, farH);
+  for (int a = 0; a < 3; ++a) farP[a] = _mm256_div_ps(farH[a], farH[3]);
+  if (view.info.z == gpu::VS_ENCODING_NDC_DEPTH) {
+    __m256 nearH[4];
+    mulPoint(0.0f, nearH);
+    for (int a = 0; a < 3; ++a) {
+      o[a] = _mm256_div_ps(nearH[a], nearH[3]);
+      d[a] = _mm256_sub_ps(farP[a], o[a]);
+    }
+    tMax = bcast(1.0f);
+  } else {
+    __m256 toFar[3];
+    for (int a = 0; a < 3; ++a) {
+      o[a] = bcast(view.origin[a]);
+      toFar[a] = _mm256_sub_ps(farP[a], o[a]);
+    }
+    __m256 len = _mm256_sqrt_ps(
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(toFar[0], toFar[0]), _mm256_mul_ps(toFar[1], toFar[1])),
+                      _mm256_mul_ps(toFar[2], toFar[2])));
+    for (int a = 0; a < 3; ++a) d[a] = _mm256_div_ps(toFar[a], len);
+    tMax = bcast(view.origin.w);
+  }
+
+  // collectCandidates: the root leaf's box, then the instance's box.
+  const gpu::BvhNode& node = arrays.nodes[0];
+  const gpu::InstanceRecord& inst = arrays.instances[one.instance];
+  __m256 infinity = bcast(gpu::VS_T_INFINITY);
+  __m256 nodeEntry = boxEntryLanes(node.boundsMin, node.boundsMax, o, d, tMax);
+  __m256 entry = boxEntryLanes(glm::vec3(inst.boundsMin), glm::vec3(inst.boundsMax), o, d, tMax);
+  __m256 candidate =
+      _mm256_and_ps(_mm256_cmp_ps(nodeEntry, infinity, _CMP_NEQ_UQ), _mm256_cmp_ps(entry, infinity, _CMP_NEQ_UQ));
+  // beginNextWalk: no walk when the box starts after tBest (= tMax).
+  __m256 walk = _mm256_and_ps(candidate, _mm256_cmp_ps(entry, tMax, _CMP_LE_OQ));
+
+  // vsApplyAffine / vsApplyLinear with worldToBrick.
+  const gpu::Affine& w = inst.worldToBrick;
+  const glm::vec4* rows[3] = {&w.row0, &w.row1, &w.row2};
+  __m256 lo[3], ld[3];
+  for (int a = 0; a < 3; ++a) {
+    const glm::vec4& r = *rows[a];
+    __m256 dot = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bcast(r.x), o[0]), _mm256_mul_ps(bcast(r.y), o[1])),
+                               _mm256_mul_ps(bcast(r.z), o[2]));
+    lo[a] = _mm256_add_ps(dot, bcast(r.w));
+    ld[a] = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bcast(r.x), d[0]), _mm256_mul_ps(bcast(r.y), d[1])),
+                          _mm256_mul_ps(bcast(r.z), d[2]));
+  }
+
+  // vsObjectWalkBegin(objectIndex, lo, ld, 0, tMax).
+  const gpu::ObjectRecord& obj = arrays.objects[one.objectIndex];
+  glm::ivec3 vmin(obj.voxelMin), vmax(obj.voxelMax);
+  bool emptyObject = vmax.x <= vmin.x || vmax.y <= vmin.y || vmax.z <= vmin.z;
+  __m256 t0 = _mm256_setzero_ps(), t1 = tMax, invD[3];
+  for (int a = 0; a < 3; ++a) {
+    __m256 zeroD = _mm256_cmp_ps(ld[a], _mm256_setzero_ps(), _CMP_EQ_OQ);
+    __m256 fmin = bcast(float(vmin[a])), fmax = bcast(float(vmax[a]));
+    __m256 outside = _mm256_or_ps(_mm256_cmp_ps(lo[a], fmin, _CMP_LT_OQ), _mm256_cmp_ps(lo[a], fmax, _CMP_GE_OQ));
+    walk = _mm256_andnot_ps(_mm256_and_ps(zeroD, outside), walk);
+    __m256 inv = _mm256_div_ps(bcast(1.0f), ld[a]);
+    invD[a] = _mm256_andnot_ps(zeroD, inv);  // 0 where d is 0
+    __m256 tLo = _mm256_mul_ps(_mm256_sub_ps(fmin, lo[a]), inv);
+    __m256 tHi = _mm256_mul_ps(_mm256_sub_ps(fmax, lo[a]), inv);
+    t0 = _mm256_blendv_ps(glmMax(t0, glmMin(tLo, tHi)), t0, zeroD);
+    t1 = _mm256_blendv_ps(glmMin(t1, glmMax(tLo, tHi)), t1, zeroD);
+  }
+  walk = _mm256_andnot_ps(_mm256_cmp_ps(t0, t1, _CMP_GT_OQ), walk);
+  __m256i v[3];
+  for (int a = 0; a < 3; ++a) {
+    __m256 e = _mm256_add_ps(lo[a], _mm256_mul_ps(ld[a], t0));
+    __m256 f = _mm256_round_ps(e, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    v[a] = _mm256_cvttps_epi32(glmMin(glmMax(f, bcast(float(vmin[a]))), bcast(float(vmax[a] - 1))));
+  }
+
+  alignas(32) float so[3][kLanes], sd[3][kLanes], slo[3][kLanes], sld[3][kLanes], sinv[3][kLanes], st0[kLanes],
+      st1[kLanes], sentry[kLanes], stMax[kLanes];
+  alignas(32) int sv[3][kLanes];
+  for (int a = 0; a < 3; ++a) {
+    _mm256_store_ps(so[a], o[a]);
+    _mm256_store_ps(sd[a], d[a]);
+    _mm256_store_ps(slo[a], lo[a]);
+    _mm256_store_ps(sld[a], ld[a]);
+    _mm256_store_ps(sinv[a], invD[a]);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(sv[a]), v[a]);
+  }
+  _mm256_store_ps(st0, t0);
+  _mm256_store_ps(st1, t1);
+  _mm256_store_ps(sentry, entry);
+  _mm256_store_ps(stMax, tMax);
+  int candidateMask = _mm256_movemask_ps(candidate);
+  int walkMask = emptyObject ? 0 : _mm256_movemask_ps(walk);
+  const int stepsLeft = (vmax.x - vmin.x) + (vmax.y - vmin.y) + (vmax.z - vmin.z) + 3;
+  for (int i = 0; i < kLanes; ++i) {
+    tile::RayState& r = *rays[i];
+    r.o = glm::vec3(so[0][i], so[1][i], so[2][i]);
+    r.d = glm::vec3(sd[0][i], sd[1][i], sd[2][i]);
+    r.tMax = stMax[i];
+    r.tBest = r.tMax;
+    r.hit = false;
+    r.instanceHit = 0u;
+    r.voxel = glm::ivec3(0);
+    r.candidateCount = (candidateMask >> i) & 1;
+    r.candidates[0] = {sentry[i], one.instance};
+    r.nextCandidate = r.candidateCount;
+    walks[i] = ((walkMask >> i) & 1) != 0;
+    if (!walks[i]) continue;
+    r.walkingInstance = one.instance;
+    gpu::SceneArrays::ObjectWalk& wk = r.walk;
+    wk.obj = obj;
+    wk.o = glm::vec3(slo[0][i], slo[1][i], slo[2][i]);
+    wk.d = glm::vec3(sld[0][i], sld[1][i], sld[2][i]);
+    wk.invD = glm::vec3(sinv[0][i], sinv[1][i], sinv[2][i]);
+    wk.v = glm::ivec3(sv[0][i], sv[1][i], sv[2][i]);
+    wk.tEnter = st0[i];
+    wk.t1 = st1[i];
+    wk.stepsLeft = stepsLeft;
+  }
+}
+
+// The texels of a run of tiles, in order, one ray at a time.
+struct TexelStream {
+  std::span<const TexelTile> tiles;
+  std::size_t tile = 0;
+  int x = 0, y = 0;
+  bool started = false;
+
+  // The view of the next texel, without taking it; false at the end.
+  bool peek(int& view) {
+    while (tile < tiles.size()) {
+      const TexelTile& t = tiles[tile];
+      if (started ? (y < t.y1 && x < t.x1) : (t.x0 < t.x1 && t.y0 < t.y1)) {
+        view = t.view;
+        return true;
+      }
+      ++tile;
+      started = false;
+    }
+    return false;
+  }
+
+  bool next(int& view, int& tx, int& ty) {
+    while (tile < tiles.size()) {
+      const TexelTile& t = tiles[tile];
+      if (!started) {
+        x = t.x0;
+        y = t.y0;
+        started = true;
+      }
+      if (y < t.y1 && x < t.x1) {
+        view = t.view;
+        tx = x;
+        ty = y;
+        if (++x == t.x1) {
+          x = t.x0;
+          ++y;
+        }
+        return true;
+      }
+      ++tile;
+      started = false;
+    }
+    return false;
+  }
+};
+
+}  // namespace
+
+void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::span<const gpu::TraceView> views,
+                     std::span<const TexelTile> tiles, std::vector<ShadowLayer>& layers) {
+  // Several independent groups of eight lanes, stepped in turn: a group's step is one long chain of
+  // dependent gathers, and the next group's chain overlaps it in the processor.
+  constexpr int kGroups = 4;
+  // Rays are set up (view ray, candidates, first walk) a batch at a time, in one tight scalar loop, and wait
+  // in `ready` until a lane frees up.
+  constexpr int kBatch = 16;
+  constexpr int kPool = kGroups * kLanes + kBatch;
+  struct Ray {
+    tile::RayState state;
+    const gpu::TraceView* view = nullptr;
+    float* texel = nullptr;
+  };
+  std::unique_ptr<Ray[]> pool(new Ray[kPool]);
+  std::unique_ptr<Lanes[]> groups(new Lanes[kGroups]);
+  int laneRay[kGroups][kLanes] = {};
+  int freeSlots[kPool];
+  int freeCount = kPool;
+  for (int s = 0; s < kPool; ++s) freeSlots[s] = kPool - 1 - s;
+  int ready[kBatch];
+  int readyHead = 0, readyCount = 0;
+  TexelStream stream{tiles};
+
+  auto finish = [&](int slot) {
+    const Ray& ray = pool[slot];
+    const tile::RayState& r = ray.state;
+    *ray.texel = arrays.vsTexelValue(*ray.view, r.o, r.d, r.tMax, r.hit, r.tBest, r.instanceHit, r.voxel);
+    freeSlots[freeCount++] = slot;
+  };
+  // Sets up the next batch of rays that need a walk (texels that need none are finished on the way).
+  const SingleInstance one = singleInstance(arrays);
+  auto prepare = [&] {
+    readyHead = readyCount = 0;
+    int view = 0, x = 0, y = 0;
+    // Single-instance scenes: eight texels of one view set up at once.
+    while (one.enabled && readyCount <= kBatch - kLanes && stream.peek(view)) {
+      int xs[kLanes], ys[kLanes], slots[kLanes], n = 0, nextView = 0;
+      while (n < kLanes && stream.peek(nextView) && nextView == view && stream.next(nextView, xs[n], ys[n])) ++n;
+      tile::RayState* states[kLanes];
+      tile::RayState spare;
+      for (int i = 0; i < kLanes; ++i) {
+        if (i < n) {
+          slots[i] = freeSlots[--freeCount];
+          states[i] = &pool[slots[i]].state;
+        } else {
+          xs[i] = xs[0], ys[i] = ys[0];
+          states[i] = &spare;
+        }
+      }
+      bool walks[kLanes];
+      setupBatch(arrays, one, views[std::size_t(view)], xs, ys, states, walks);
+      ShadowLayer& layer = layers[std::size_t(view)];
+      for (int i = 0; i < n; ++i) {
+        Ray& ray = pool[slots[i]];
+        ray.view = &views[std::size_t(view)];
+        ray.texel = &layer.texels[std::size_t(ys[i]) * layer.width + xs[i]];
+        if (walks[i]) {
+          ready[readyCount++] = slots[i];
+        } else {
+          finish(slots[i]);
+        }
+      }
+    }
+    if (one.enabled) return;
+    while (readyCount < kBatch && stream.next(view, x, y)) {
+      int slot = freeSlots[--freeCount];
+      Ray& ray = pool[slot];
+      tile::RayState& r = ray.state;
+      ShadowLayer& layer = layers[std::size_t(view)];
+      ray.view = &views[std::size_t(view)];
+      ray.texel = &layer.texels[std::size_t(y) * layer.width + x];
+      arrays.vsViewRay(*ray.view, glm::ivec2(x, y), r.o, r.d, r.tMax);
+      r.tBest = r.tMax;
+      r.hit = false;
+      r.instanceHit = 0u;
+      r.voxel = glm::ivec3(0);
+      r.nextCandidate = 0;
+      if (!tile::collectCandidates(arrays, r)) {
+        *ray.texel = arrays.vsShadowTexel(*ray.view, glm::ivec2(x, y));
+        freeSlots[freeCount++] = slot;
+        continue;
+      }
+      if (tile::beginNextWalk(arrays, r)) {
+        ready[readyCount++] = slot;
+        continue;
+      }
+      finish(slot);
+    }
+  };
+  // Gives lane i of group k the next ready ray, or leaves it idle when the stream is exhausted.
+  auto refill = [&](int k, int i) {
+    groups[k].live[i] = 0;
+    if (readyHead == readyCount) prepare();
+    if (readyHead == readyCount) return;
+    int slot = ready[readyHead++];
+    laneRay[k][i] = slot;
+    const tile::RayState& r = pool[slot].state;
+    loadLane(groups[k], i, r.walk, tables, arrays.instances[r.walkingInstance].info.x);
+  };
+
+  int liveCount = 0;
+  for (int k = 0; k < kGroups; ++k)
+    for (int i = 0; i < kLanes; ++i) {
+      refill(k, i);
+      liveCount += groups[k].live[i] != 0;
+    }
+  while (liveCount > 0) {
+    for (int k = 0; k < kGroups; ++k) beginStepLanes(tables, groups[k]);
+    for (int k = 0; k < kGroups; ++k) lookupLanes(arrays, tables, groups[k]);
+    for (int k = 0; k < kGroups; ++k) {
+      Lanes& L = groups[k];
+      int hits = 0;
+      int done = advanceLanes(L, hits);
+      for (; done != 0; done &= done - 1) {
+        int i = __builtin_ctz(unsigned(done));
+        int slot = laneRay[k][i];
+        tile::RayState& r = pool[slot].state;
+        if (hits & (1 << i)) tile::recordHit(r, L.tEnter[i], glm::ivec3(L.v[0][i], L.v[1][i], L.v[2][i]));
+        if (tile::beginNextWalk(arrays, r)) {
+          loadLane(L, i, r.walk, tables, arrays.instances[r.walkingInstance].info.x);
+          continue;
+        }
+        finish(slot);
+        refill(k, i);
+        if (L.live[i] == 0) --liveCount;
+      }
+    }
+  }
+}
+
+#pragma GCC pop_options
+#else
+void traceTilesLanes(gpu::SceneArrays&, const LaneTables&, std::span<const gpu::TraceView>, std::span<const TexelTile>,
+                     std::vector<ShadowLayer>&) {
+  throwBadInput("the lane tracer needs x86-64 with AVX2");
+}
+#endif
+
+}  // namespace vs

@@ -1,0 +1,64 @@
+// lane_tracer.h: the CPU fast path. The portable object walk (compute/shared/traverse.h) of eight rays at
+// once, one ray per AVX2 lane: every lane performs the very IEEE operations of vsObjectWalkStep in the same
+// order (no fused multiply-add, glm's min/max operand order, floor by rounding toward -inf, the lowest axis on
+// exit ties), so each texel equals the reference per-ray traversal's bit for bit. No step is skipped: a lane
+// runs exactly the reference's sequence of cells. What is cheaper is how each step learns its cell size:
+// dense per-object tables (built per trace from the brickmap) answer "region / sector / brick empty" with one
+// gather, instead of the chain of dependent loads and branches of vsWalkCellLog2.
+//
+// Four groups of eight lanes are stepped in three parts each, so that the groups' gathers overlap. A lane
+// whose ray finishes takes the next ray at once. Rays are set up by the portable scalar code (vsViewRay,
+// candidates from the BVH, vsObjectWalkBegin), or, in a scene whose BVH is one leaf holding one instance,
+// eight at a time by a lane version of that same code (same operations, same order).
+#ifndef VOXSHADOW_LANE_TRACER_H
+#define VOXSHADOW_LANE_TRACER_H
+
+#include <cstdint>
+#include <limits>
+#include <span>
+#include <vector>
+
+#include "compute/cpu/cpu_tracer.h"
+#include "compute/cpu/scene_arrays.h"
+
+namespace vs {
+
+// A texel rectangle [x0, x1) x [y0, y1) of view `view`.
+struct TexelTile {
+  int view, x0, y0, x1, y1;
+};
+
+// Whether this processor runs the lane tracer (AVX2) and the scene's arrays fit its 32-bit gather indices.
+bool laneTracerSupported(const SceneData& scene);
+
+// Sector codes of every object: VS_REGION_LOG2 / VS_SECTOR_LOG2 negated where the region / sector is empty,
+// else the sector's global index; objectBase[i] is object i's first code, laid out like its region table with
+// 4^3 sectors per region slot (x fastest).
+// When every object's bricks fit kMaxLaneBrickCodes, brickCodes holds the same per brick coordinate (16^3 per
+// region slot): VS_BRICK_LOG2 negated where the brick is empty, kLaneFullBrick where it is full, else the
+// global index of its first occupancy word. A step then reads one code and one occupancy word. The cell level
+// comes from the occupancy word too (a cell's mask bit is its occupancy byte != 0, brickmap_layout.h); the
+// table is built only when every brick of the scene satisfies that, so the answers are the cell mask's.
+struct LaneTables {
+  std::vector<std::int32_t> sectorCodes;
+  std::vector<std::int32_t> objectBase;
+  std::vector<std::int32_t> brickCodes;
+  std::vector<std::int32_t> objectBrickBase;
+};
+
+// Fills `tables` for the scene; false (tables left empty) when they would exceed kMaxLaneSectorCodes. The brick
+// level is built when it fits maxBrickCodes (0 keeps every step on the sector level and the lane brick cache).
+constexpr std::size_t kMaxLaneSectorCodes = std::size_t(1) << 24;
+constexpr std::size_t kMaxLaneBrickCodes = std::size_t(1) << 22;
+constexpr std::int32_t kLaneFullBrick = std::numeric_limits<std::int32_t>::min();
+bool buildLaneTables(const SceneData& scene, LaneTables& tables, std::size_t maxBrickCodes = kMaxLaneBrickCodes);
+
+// Traces every tile into layers[tile.view].texels (row stride layers[..].width).
+// Preconditions: laneTracerSupported(scene) and buildLaneTables(scene, tables) succeeded for the scene behind
+// `arrays`; tiles lie inside their views and layers[tile.view] has the view's size.
+void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::span<const gpu::TraceView> views,
+                     std::span<const TexelTile> tiles, std::vector<ShadowLayer>& layers);
+
+}  // namespace vs
+
+#endif

@@ -1,0 +1,170 @@
+// The CPU fast path (CpuTracePath::Interleaved: eight-lane AVX2 walks where available) equals the reference
+// per-ray traversal bit for bit on the benchmark scene, from many directions, both depth points, partial
+// rectangles, and rays aimed along voxel faces, edges and corners.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "compute/cpu/cpu_tracer.h"
+#include "compute/cpu/lane_tracer.h"
+#include "support/test_scenes.h"
+
+namespace vs {
+namespace {
+
+// Orthographic NDC-depth view looking along `direction` at `center`, half-width `half`, res x res texels.
+// With half = res the texel centres sit 2 units apart on odd offsets from `center`: on voxel faces, edges
+// and corners when `center` is an integer point and the view is axis-aligned or diagonal.
+gpu::TraceView gridView(glm::vec3 center, glm::vec3 direction, float half, int res) {
+  glm::vec3 d = glm::normalize(direction);
+  glm::vec3 up = std::abs(d.y) > 0.99f ? glm::vec3(0, 0, 1) : glm::vec3(0, 1, 0);
+  glm::mat4 view = glm::lookAtRH(center - d * 600.0f, center, up);
+  glm::mat4 proj = glm::orthoRH_ZO(-half, half, -half, half, 10.0f, 1300.0f);
+  gpu::TraceView tv{};
+  tv.viewProj = proj * view;
+  tv.invViewProj = glm::inverse(tv.viewProj);
+  tv.rect = glm::ivec4(0, 0, res, res);
+  tv.info = glm::ivec4(res, res, gpu::VS_ENCODING_NDC_DEPTH, gpu::VS_DEPTH_POINT_ENTRY);
+  return tv;
+}
+
+std::vector<gpu::TraceView> cityViews(const Aabb& b) {
+  const int res = 160;
+  std::vector<gpu::TraceView> views;
+  const glm::vec3 directions[] = {{-0.4f, -1.0f, -0.3f}, {0, -1, 0}, {1, 0, 0},    {0, 0, -1},
+                                  {-1, -1, 0},           {1, -1, 1}, {-1, -1, -1}, {0.3f, -0.2f, 1}};
+  for (const glm::vec3& d : directions) views.push_back(test::directionalView(b, d, res));
+  glm::vec3 c = (b.min + b.max) * 0.5f;
+  // Spot views from above, from inside the city and from a corner, looking along axes and diagonals.
+  views.push_back(test::distanceView(c + glm::vec3(0, 400, 0), {0.2f, -1, 0.1f}, 1500.0f, res));
+  views.push_back(test::distanceView({100.5f, 60.0f, 200.25f}, {1, 0, 0}, 800.0f, res));
+  views.push_back(test::distanceView({256.0f, 128.0f, 256.0f}, {0, -1, 0}, 800.0f, res));
+  views.push_back(test::distanceView({0.0f, 300.0f, 0.0f}, {1, -1, 1}, 1200.0f, res, 60.0f));
+  views.push_back(test::distanceView({500.0f, 20.0f, 12.0f}, {-1, 0, 1}, 1200.0f, res, 120.0f));
+  // Rays along voxel faces, edges and corners.
+  for (glm::vec3 center : {glm::vec3(256, 128, 256), glm::vec3(256.5f, 128.5f, 256.5f)}) {
+    views.push_back(gridView(center, {0, -1, 0}, 160.0f, res));
+    views.push_back(gridView(center, {1, 0, 0}, 160.0f, res));
+    views.push_back(gridView(center, {1, -1, 0}, 160.0f, res));
+    views.push_back(gridView(center, {-1, -1, 1}, 160.0f, res));
+  }
+  std::size_t n = views.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    gpu::TraceView center = views[i];
+    center.info.w = gpu::VS_DEPTH_POINT_VOXEL_CENTER;
+    center.rect = glm::ivec4(7, 5, center.info.x - 3, center.info.y - 11);  // not a multiple of the tile
+    views.push_back(center);
+  }
+  return views;
+}
+
+std::size_t differingTexels(const ShadowLayer& a, const ShadowLayer& b) {
+  EXPECT_EQ(a.texels.size(), b.texels.size());
+  std::size_t differing = 0;
+  for (std::size_t k = 0; k < a.texels.size() && k < b.texels.size(); ++k)
+    if (std::memcmp(&a.texels[k], &b.texels[k], sizeof(float)) != 0) ++differing;
+  return differing;
+}
+
+TEST(TraceCpuFast, City512MatchesReferenceBitForBit) {
+  auto scene = test::city512Scene();
+  if (!laneTracerSupported(scene.data)) GTEST_LOG_(INFO) << "no AVX2: the fast path is the round-robin walk";
+  auto views = cityViews(scene.data.worldBounds);
+  std::vector<ShadowLayer> reference, fast;
+  traceCpu(scene.data, views, reference, CpuTracePath::Reference, 2);
+  traceCpu(scene.data, views, fast, CpuTracePath::Interleaved, 2);
+  ASSERT_EQ(reference.size(), views.size());
+  ASSERT_EQ(fast.size(), views.size());
+  std::size_t hits = 0;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    EXPECT_EQ(differingTexels(reference[i], fast[i]), 0u) << "view " << i;
+    float miss = views[i].info.z == gpu::VS_ENCODING_NDC_DEPTH ? 1.0f : views[i].origin.w;
+    for (float t : reference[i].texels) hits += t < miss;
+  }
+  // The views see the city: a large share of the texels hit.
+  EXPECT_GT(hits, std::size_t(views.size()) * 160 * 160 / 10);
+}
+
+// The default path is the fast one, and texels outside a view's rectangle keep their values.
+TEST(TraceCpuFast, DefaultPathKeepsTexelsOutsideTheRectangle) {
+  auto scene = test::city512Scene();
+  gpu::TraceView view = test::directionalView(scene.data.worldBounds, {-0.4f, -1.0f, -0.3f}, 64);
+  view.rect = glm::ivec4(10, 20, 37, 41);
+  std::vector<ShadowLayer> fast(1), reference(1);
+  for (auto* layers : {&fast, &reference}) {
+    (*layers)[0].width = 64;
+    (*layers)[0].height = 64;
+    (*layers)[0].texels.assign(64 * 64, -7.0f);
+  }
+  traceCpu(scene.data, std::span<const gpu::TraceView>(&view, 1), fast);
+  traceCpu(scene.data, std::span<const gpu::TraceView>(&view, 1), reference, CpuTracePath::Reference);
+  EXPECT_EQ(differingTexels(reference[0], fast[0]), 0u);
+  std::size_t untouched = 0;
+  for (float t : fast[0].texels) untouched += t == -7.0f;
+  EXPECT_EQ(untouched, 64u * 64u - 27u * 21u);
+}
+
+// Scenes with many rotated instances and long objects: the lanes switch objects within one ray.
+TEST(TraceCpuFast, InstancedScenesMatchReferenceBitForBit) {
+  std::vector<test::TestScene> scenes;
+  scenes.push_back(test::manyInstancesScene(2000));
+  scenes.push_back(test::longObjectScene());
+  scenes.push_back(test::floorScene());
+  for (const auto& scene : scenes) {
+    const Aabb& b = scene.data.worldBounds;
+    glm::vec3 c = (b.min + b.max) * 0.5f;
+    float r = glm::length(b.max - b.min);
+    std::vector<gpu::TraceView> views = {
+        test::directionalView(b, {-0.4f, -1.0f, -0.3f}, 128), test::directionalView(b, {1, -1, 0}, 128),
+        test::distanceView(c + glm::vec3(0, r * 0.4f, 0), {0.2f, -1, 0.1f}, r * 2, 128),
+        test::distanceView(c, {0, 0, 1}, r, 96)};
+    views.push_back(views[2]);
+    views.back().info.w = gpu::VS_DEPTH_POINT_VOXEL_CENTER;
+    std::vector<ShadowLayer> reference, fast;
+    traceCpu(scene.data, views, reference, CpuTracePath::Reference, 2);
+    traceCpu(scene.data, views, fast, CpuTracePath::Interleaved, 2);
+    for (std::size_t i = 0; i < views.size(); ++i)
+      EXPECT_EQ(differingTexels(reference[i], fast[i]), 0u) << scene.name << " view " << i;
+  }
+}
+
+}  // namespace
+}  // namespace vs
+
+namespace vs {
+namespace {
+
+// Both levels of the lane tracer's tables (brick codes, and sector codes with the lane brick cache used for
+// scenes whose brick table would be too large) equal the reference bit for bit.
+TEST(TraceCpuFast, LaneTracerBothTableLevelsMatchReference) {
+  auto scene = test::city512Scene();
+  if (!laneTracerSupported(scene.data)) GTEST_SKIP() << "no AVX2 on this processor";
+  std::vector<gpu::TraceView> views = {test::directionalView(scene.data.worldBounds, {-0.4f, -1.0f, -0.3f}, 128),
+                                       test::directionalView(scene.data.worldBounds, {1, -1, 1}, 128),
+                                       test::distanceView({256.0f, 300.0f, 256.0f}, {0.1f, -1, 0.2f}, 1000.0f, 128)};
+  views[1].info.w = gpu::VS_DEPTH_POINT_VOXEL_CENTER;
+  std::vector<ShadowLayer> reference;
+  traceCpu(scene.data, views, reference, CpuTracePath::Reference, 1);
+  for (std::size_t maxBrickCodes : {kMaxLaneBrickCodes, std::size_t(0)}) {
+    LaneTables tables;
+    ASSERT_TRUE(buildLaneTables(scene.data, tables, maxBrickCodes));
+    EXPECT_EQ(tables.brickCodes.empty(), maxBrickCodes == 0);
+    std::vector<ShadowLayer> lanes(views.size());
+    std::vector<TexelTile> tiles;
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      lanes[i].width = views[i].info.x;
+      lanes[i].height = views[i].info.y;
+      lanes[i].texels.assign(std::size_t(lanes[i].width) * lanes[i].height, 0.0f);
+      for (int y = 0; y < views[i].info.y; y += 4)
+        for (int x = 0; x < views[i].info.x; x += 16) tiles.push_back({int(i), x, y, x + 16, y + 4});
+    }
+    gpu::SceneArrays arrays(scene.data);
+    traceTilesLanes(arrays, tables, views, tiles, lanes);
+    for (std::size_t i = 0; i < views.size(); ++i)
+      EXPECT_EQ(differingTexels(reference[i], lanes[i]), 0u) << "view " << i << " max brick codes " << maxBrickCodes;
+  }
+}
+
+}  // namespace
+}  // namespace vs
