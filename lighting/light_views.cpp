@@ -37,11 +37,8 @@ LightView makeView(const LightDesc& light, int lightIndex, const std::string& na
   v.range = range;
   v.position = encoding == gpu::VS_ENCODING_LINEAR_DISTANCE ? light.position : glm::vec3(0.0f);
   v.viewProj = glm::mat4(viewProj);
-  v.trace.viewProj = v.viewProj;
-  v.trace.invViewProj = glm::mat4(glm::inverse(viewProj));
-  v.trace.origin = glm::vec4(v.position, range);
-  v.trace.rect = glm::ivec4(0, 0, v.resolution, v.resolution);
-  v.trace.info = glm::ivec4(v.resolution, v.resolution, encoding, v.depthPoint);
+  v.trace = gpu::makeTraceView(viewProj, v.resolution, v.resolution, encoding, v.depthPoint,
+                                glm::vec4(v.position, range));
   return v;
 }
 

@@ -21,12 +21,7 @@ gpu::TraceView gridView(glm::vec3 center, glm::vec3 direction, float half, int r
   glm::vec3 up = std::abs(d.y) > 0.99f ? glm::vec3(0, 0, 1) : glm::vec3(0, 1, 0);
   glm::mat4 view = glm::lookAtRH(center - d * 600.0f, center, up);
   glm::mat4 proj = glm::orthoRH_ZO(-half, half, -half, half, 10.0f, 1300.0f);
-  gpu::TraceView tv{};
-  tv.viewProj = proj * view;
-  tv.invViewProj = glm::inverse(tv.viewProj);
-  tv.rect = glm::ivec4(0, 0, res, res);
-  tv.info = glm::ivec4(res, res, gpu::VS_ENCODING_NDC_DEPTH, gpu::VS_DEPTH_POINT_ENTRY);
-  return tv;
+  return gpu::makeTraceView(glm::dmat4(proj * view), res, res, gpu::VS_ENCODING_NDC_DEPTH, gpu::VS_DEPTH_POINT_ENTRY);
 }
 
 std::vector<gpu::TraceView> cityViews(const Aabb& b) {

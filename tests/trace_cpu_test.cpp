@@ -357,33 +357,7 @@ TEST(TraceCpuReference, City512Views) {
 
 // Instances of every third-party asset, rotated and scaled non-uniformly.
 TEST(TraceCpuReference, ThirdPartyAssets) {
-  test::TestScene scene;
-  scene.name = "third-party assets";
-  std::vector<std::unique_ptr<VoxelObject>> objects;
-  auto dir = test::sharedAssets() / "vdb";
-  std::vector<std::filesystem::path> files;
-  for (const auto& entry : std::filesystem::directory_iterator(dir))
-    if (entry.is_regular_file() && entry.path().extension() == ".vdb") files.push_back(entry.path());
-  std::sort(files.begin(), files.end());
-  ASSERT_GE(files.size(), 7u);
-  double x = 0.0;
-  for (const auto& file : files) {
-    auto object = std::make_unique<VoxelObject>(loadVdb(file.string()));
-    if (object->brickmap.solidCount() == 0) continue;
-    std::uint32_t index = static_cast<std::uint32_t>(scene.brickmaps.size());
-    // Normalise every asset to about 20 world units, then rotate and stretch it.
-    VoxelBox b = object->brickmap.bounds();
-    double extent = double(glm::compMax(b.max - b.min));
-    glm::dmat4 fit = glm::scale(glm::dmat4(1.0), glm::dvec3(20.0 / extent)) *
-                     glm::translate(glm::dmat4(1.0), -glm::dvec3(b.min + b.max) * 0.5);
-    glm::dmat4 place = glm::translate(glm::dmat4(1.0), glm::dvec3(x, 0.0, 0.0)) *
-                       glm::rotate(glm::dmat4(1.0), 0.3 + x * 0.01, glm::normalize(glm::dvec3(0.2, 1.0, 0.4))) *
-                       glm::scale(glm::dmat4(1.0), glm::dvec3(1.0, 0.6, 1.3));
-    scene.instances.push_back({index, place * fit});
-    scene.brickmaps.push_back(std::make_unique<Brickmap>(object->brickmap));
-    x += 26.0;
-  }
-  scene.finish();
+  auto scene = test::thirdPartyAssetsScene();
   expectViewsAgree(scene, standardViews(scene.data.worldBounds, 160));
 }
 

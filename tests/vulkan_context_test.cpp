@@ -101,13 +101,7 @@ TinyScene heightScene() {
 
 TraceView makeView(const glm::mat4& viewProj, int width, int height, int encoding, int depthPoint,
                    glm::vec4 origin = glm::vec4(0.0f)) {
-  TraceView v{};
-  v.viewProj = viewProj;
-  v.invViewProj = glm::inverse(viewProj);
-  v.origin = origin;
-  v.rect = glm::ivec4(0, 0, width, height);
-  v.info = glm::ivec4(width, height, encoding, depthPoint);
-  return v;
+  return vs::gpu::makeTraceView(glm::dmat4(viewProj), width, height, encoding, depthPoint, origin);
 }
 
 // Looking straight down from y = 10 onto the 8x8 footprint; near at y = 10, far at y = -10.

@@ -177,12 +177,7 @@ gpu::TraceView boundaryView(const Aabb& b, glm::vec3 d) {
   glm::mat4 view = glm::lookAtRH(center - d * depth, center, up);
   glm::mat4 proj = glm::orthoRH_ZO(-half - 0.25f, half - 0.25f, -half - 0.25f, half - 0.25f, 1.0f, 2.0f * depth);
   int res = int(half * 4.0f);
-  gpu::TraceView tv{};
-  tv.viewProj = proj * view;
-  tv.invViewProj = glm::inverse(tv.viewProj);
-  tv.rect = glm::ivec4(0, 0, res, res);
-  tv.info = glm::ivec4(res, res, gpu::VS_ENCODING_NDC_DEPTH, gpu::VS_DEPTH_POINT_ENTRY);
-  return tv;
+  return gpu::makeTraceView(glm::dmat4(proj * view), res, res, gpu::VS_ENCODING_NDC_DEPTH, gpu::VS_DEPTH_POINT_ENTRY);
 }
 
 TEST_F(VulkanTrace, RaysAlongVoxelBoundariesMatchCpu) {
@@ -223,30 +218,7 @@ TEST_F(VulkanTrace, City512MatchesCpu) {
 
 // Instances of every third-party asset, rotated and scaled non-uniformly (as in trace_cpu_test.cpp).
 TEST_F(VulkanTrace, ThirdPartyAssetsMatchCpu) {
-  test::TestScene scene;
-  scene.name = "third-party assets";
-  std::vector<std::filesystem::path> files;
-  for (const auto& entry : std::filesystem::directory_iterator(test::sharedAssets() / "vdb"))
-    if (entry.is_regular_file() && entry.path().extension() == ".vdb") files.push_back(entry.path());
-  std::sort(files.begin(), files.end());
-  ASSERT_GE(files.size(), 7u);
-  double x = 0.0;
-  for (const auto& file : files) {
-    VoxelObject object = loadVdb(file.string());
-    if (object.brickmap.solidCount() == 0) continue;
-    auto index = static_cast<std::uint32_t>(scene.brickmaps.size());
-    VoxelBox b = object.brickmap.bounds();
-    double extent = double(glm::compMax(b.max - b.min));
-    glm::dmat4 fit = glm::scale(glm::dmat4(1.0), glm::dvec3(20.0 / extent)) *
-                     glm::translate(glm::dmat4(1.0), -glm::dvec3(b.min + b.max) * 0.5);
-    glm::dmat4 place = glm::translate(glm::dmat4(1.0), glm::dvec3(x, 0.0, 0.0)) *
-                       glm::rotate(glm::dmat4(1.0), 0.3 + x * 0.01, glm::normalize(glm::dvec3(0.2, 1.0, 0.4))) *
-                       glm::scale(glm::dmat4(1.0), glm::dvec3(1.0, 0.6, 1.3));
-    scene.instances.push_back({index, place * fit});
-    scene.brickmaps.push_back(std::make_unique<Brickmap>(object.brickmap));
-    x += 26.0;
-  }
-  scene.finish();
+  auto scene = test::thirdPartyAssetsScene();
   expectGpuMatchesCpu(*tracer_, scene.name, scene.data, standardViews(scene.data.worldBounds, 128));
 }
 

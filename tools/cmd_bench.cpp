@@ -57,12 +57,7 @@ gpu::TraceView calibrationView(int res) {
   // z_view = -(d.p); depth = (d.p - dMin) / (dMax - dMin) = (-z_view - dMin) / (dMax - dMin).
   proj[2][2] = -1.0f / (dMax - dMin);
   proj[3][2] = -dMin / (dMax - dMin);
-  gpu::TraceView tv{};
-  tv.viewProj = proj * view;
-  tv.invViewProj = glm::inverse(tv.viewProj);
-  tv.rect = glm::ivec4(0, 0, res, res);
-  tv.info = glm::ivec4(res, res, gpu::VS_ENCODING_NDC_DEPTH, gpu::VS_DEPTH_POINT_ENTRY);
-  return tv;
+  return gpu::makeTraceView(glm::dmat4(proj * view), res, res, gpu::VS_ENCODING_NDC_DEPTH, gpu::VS_DEPTH_POINT_ENTRY);
 }
 
 double median(std::vector<double> v) {

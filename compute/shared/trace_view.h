@@ -40,6 +40,19 @@ VS_NAMESPACE_END
 
 #ifndef VS_GLSL
 namespace vs::gpu {
+// The descriptor of a whole view (its rectangle covers every texel). The inverse is taken in double: the rays
+// of texels far from the view's centre inherit its rounding.
+inline TraceView makeTraceView(const glm::dmat4& viewProj, int width, int height, int encoding, int depthPoint,
+                               glm::vec4 origin = glm::vec4(0.0f)) {
+  TraceView view{};
+  view.viewProj = glm::mat4(viewProj);
+  view.invViewProj = glm::mat4(glm::inverse(viewProj));
+  view.origin = origin;
+  view.rect = glm::ivec4(0, 0, width, height);
+  view.info = glm::ivec4(width, height, encoding, depthPoint);
+  return view;
+}
+
 VS_LAYOUT_CHECK(TraceView, 176);
 VS_OFFSET_CHECK(TraceView, invViewProj, 64);
 VS_OFFSET_CHECK(TraceView, origin, 128);

@@ -1,10 +1,16 @@
 #include "support/test_scenes.h"
 
+#include <algorithm>
+#include <filesystem>
 #include <random>
+#include <stdexcept>
 
 #include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtx/component_wise.hpp>
 
+#include "support/test_paths.h"
 #include "voxel/city512.h"
+#include "voxel/voxel_object.h"
 
 namespace vs::test {
 
@@ -98,6 +104,34 @@ TestScene manyInstancesScene(int count) {
 
 TestScene city512Scene() { return single("city512", city512Voxels()); }
 
+TestScene thirdPartyAssetsScene() {
+  TestScene scene;
+  scene.name = "third-party assets";
+  std::vector<std::filesystem::path> files;
+  for (const auto& entry : std::filesystem::directory_iterator(sharedAssets() / "vdb"))
+    if (entry.is_regular_file() && entry.path().extension() == ".vdb") files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  if (files.size() < 7) throw std::runtime_error("expected at least 7 .vdb files in " + (sharedAssets() / "vdb").string());
+  double x = 0.0;
+  for (const auto& file : files) {
+    VoxelObject object = loadVdb(file.string());
+    if (object.brickmap.solidCount() == 0) continue;
+    auto index = static_cast<std::uint32_t>(scene.brickmaps.size());
+    VoxelBox b = object.brickmap.bounds();
+    double extent = double(glm::compMax(b.max - b.min));
+    glm::dmat4 fit = glm::scale(glm::dmat4(1.0), glm::dvec3(20.0 / extent)) *
+                     glm::translate(glm::dmat4(1.0), -glm::dvec3(b.min + b.max) * 0.5);
+    glm::dmat4 place = glm::translate(glm::dmat4(1.0), glm::dvec3(x, 0.0, 0.0)) *
+                       glm::rotate(glm::dmat4(1.0), 0.3 + x * 0.01, glm::normalize(glm::dvec3(0.2, 1.0, 0.4))) *
+                       glm::scale(glm::dmat4(1.0), glm::dvec3(1.0, 0.6, 1.3));
+    scene.instances.push_back({index, place * fit});
+    scene.brickmaps.push_back(std::make_unique<Brickmap>(std::move(object.brickmap)));
+    x += 26.0;
+  }
+  scene.finish();
+  return scene;
+}
+
 gpu::TraceView directionalView(const Aabb& bounds, glm::vec3 direction, int res) {
   glm::vec3 d = glm::normalize(direction);
   glm::vec3 center = (bounds.min + bounds.max) * 0.5f;
@@ -105,13 +139,7 @@ gpu::TraceView directionalView(const Aabb& bounds, glm::vec3 direction, int res)
   glm::vec3 up = std::abs(d.y) > 0.99f ? glm::vec3(0, 0, 1) : glm::vec3(0, 1, 0);
   glm::mat4 view = glm::lookAtRH(center - d * radius * 2.0f, center, up);
   glm::mat4 proj = glm::orthoRH_ZO(-radius, radius, -radius, radius, radius * 0.5f, radius * 3.5f);
-  gpu::TraceView tv{};
-  tv.viewProj = proj * view;
-  tv.invViewProj = glm::inverse(tv.viewProj);
-  tv.origin = glm::vec4(0.0f);
-  tv.rect = glm::ivec4(0, 0, res, res);
-  tv.info = glm::ivec4(res, res, gpu::VS_ENCODING_NDC_DEPTH, gpu::VS_DEPTH_POINT_ENTRY);
-  return tv;
+  return gpu::makeTraceView(glm::dmat4(proj * view), res, res, gpu::VS_ENCODING_NDC_DEPTH, gpu::VS_DEPTH_POINT_ENTRY);
 }
 
 gpu::TraceView distanceView(glm::vec3 position, glm::vec3 direction, float range, int res, float fovDeg) {
@@ -119,13 +147,8 @@ gpu::TraceView distanceView(glm::vec3 position, glm::vec3 direction, float range
   glm::vec3 up = std::abs(d.y) > 0.99f ? glm::vec3(0, 0, 1) : glm::vec3(0, 1, 0);
   glm::mat4 view = glm::lookAtRH(position, position + d, up);
   glm::mat4 proj = glm::perspectiveRH_ZO(glm::radians(fovDeg), 1.0f, range * 1e-3f, range);
-  gpu::TraceView tv{};
-  tv.viewProj = proj * view;
-  tv.invViewProj = glm::inverse(tv.viewProj);
-  tv.origin = glm::vec4(position, range);
-  tv.rect = glm::ivec4(0, 0, res, res);
-  tv.info = glm::ivec4(res, res, gpu::VS_ENCODING_LINEAR_DISTANCE, gpu::VS_DEPTH_POINT_ENTRY);
-  return tv;
+  return gpu::makeTraceView(glm::dmat4(proj * view), res, res, gpu::VS_ENCODING_LINEAR_DISTANCE,
+                            gpu::VS_DEPTH_POINT_ENTRY, glm::vec4(position, range));
 }
 
 }  // namespace vs::test

@@ -39,6 +39,9 @@ TestScene emptyObjectScene();
 TestScene manyInstancesScene(int count);
 // The city512 benchmark voxels (DESIGN.md §10), one identity instance.
 TestScene city512Scene();
+// One instance of every non-empty grid chosen by default in every ../shared/assets/vdb/*.vdb, each scaled to
+// about 20 world units, rotated and stretched non-uniformly, side by side along x.
+TestScene thirdPartyAssetsScene();
 
 // Directional view (orthographic, NDC depth) looking along `direction` over a world box, res x res.
 gpu::TraceView directionalView(const Aabb& bounds, glm::vec3 direction, int res);
