@@ -204,6 +204,15 @@ TEST(Cli, BakeOfBrokenSceneExitsTwoAndWritesNothing) {
   EXPECT_EQ(cli("bake " + quote(scene) + " -o " + quote(dir / "g.exr") + " --backend cpu", out), 2) << out;
   EXPECT_TRUE(contains(out, "no_such_grid")) << out;
   EXPECT_FALSE(fs::exists(dir / "g.exr"));
+  // A scene whose asset is a damaged file.
+  const fs::path damagedScene = dir / "damaged_asset.json";
+  writeFile(damagedScene, sceneText(vs::test::sharedAssets() / "vdb" / "damaged" / "truncated.vdb"));
+  EXPECT_EQ(cli("bake " + quote(damagedScene) + " -o " + quote(dir / "d.exr") + " --backend cpu", out), 2) << out;
+  EXPECT_TRUE(contains(out, "damaged_asset.json")) << out;
+  EXPECT_TRUE(contains(out, "assets.ball")) << out;
+  EXPECT_TRUE(contains(out, "truncated.vdb")) << out;
+  EXPECT_FALSE(fs::exists(dir / "d.exr"));
+  EXPECT_FALSE(fs::exists(dir / "d.json"));
 }
 
 TEST(Cli, BakeToUnusableOutputExitsTwoAndWritesNothing) {

@@ -10,9 +10,11 @@
 
 #include "compute/cpu/cpu_tracer.h"
 #include "compute/cpu/scene_arrays.h"
+#include "lighting/scene.h"
 #include "support/test_paths.h"
 #include "support/test_scenes.h"
 #include "tools/peer/openvdb_peer.h"
+#include "voxel/demo_world.h"
 #include "voxel/voxel_object.h"
 
 namespace vs {
@@ -271,16 +273,18 @@ TEST(TraceCpuHostile, TenThousandInstancesBvhMatchesBruteForce) {
   EXPECT_GT(hits, 400);
 }
 
-// Every texel of every view agrees with the OpenVDB reference: hit/miss on all but `maxMismatch` of the
-// texels (and those only on grazing contacts), depth within 1e-3 voxel.
+// Every texel of every view agrees with the OpenVDB reference: hit/miss on all but `maxTies` of the texels,
+// depth within 1e-3 voxel. A disagreement is allowed only where the nearer of the two hits is a grazing
+// contact (the ray touches that voxel over at most 1e-3 voxel: an edge or corner tie, broken differently by
+// the two walks); every other disagreement fails the test.
 void expectViewsAgree(const test::TestScene& scene, const std::vector<gpu::TraceView>& views,
-                      double maxMismatch = 1e-5) {
+                      double maxTies = 1e-5) {
   std::vector<ShadowLayer> layers;
   traceCpu(scene.data, views, layers);
   auto pointers = scene.brickmapPointers();
   OpenVdbPeer peer(pointers, scene.data);
   gpu::SceneArrays arrays(scene.data);
-  std::size_t texels = 0, hitMismatch = 0, nonGrazing = 0, depthMismatch = 0, hits = 0;
+  std::size_t texels = 0, hits = 0, hitMismatch = 0, depthMismatch = 0, notTies = 0;
   double maxErr = 0.0;
   for (std::size_t i = 0; i < views.size(); ++i) {
     const auto& view = views[i];
@@ -296,35 +300,39 @@ void expectViewsAgree(const test::TestScene& scene, const std::vector<gpu::Trace
         glm::ivec3 vp(0);
         bool hitp = peer.trace(o, d, 0.0, double(tMax), tp, inst, vp);
         bool hit = ours < tMax;
-        if (hit != hitp) {
-          ++hitMismatch;
-          float t = 0;
-          std::uint32_t oi = 0;
-          glm::ivec3 ov(0);
-          if (hit) arrays.vsTraceClosest(o, d, 0.0f, tMax, t, oi, ov);
-          if (!(hit ? grazes(scene.data, oi, ov, o, d) : grazes(scene.data, inst, vp, o, d))) ++nonGrazing;
-          if (hitMismatch <= 3) {
-            std::printf("  view %zu texel (%d %d): ours %s (t=%.9g instance %u voxel %d %d %d), peer %s (t=%.9g instance "
-                        "%u voxel %d %d %d)\n",
-                        i, x, y, hit ? "hit" : "miss", t, oi, ov.x, ov.y, ov.z, hitp ? "hit" : "miss", tp, inst, vp.x,
-                        vp.y, vp.z);
+        if (!hit && !hitp) continue;
+        double err = 0.0;
+        if (hit && hitp) {
+          ++hits;
+          err = std::abs(double(ours) - tp) * voxelsPerT(scene.data, inst, d);
+          if (err <= 1e-3) {
+            maxErr = std::max(maxErr, err);
+            continue;
           }
-          continue;
+          ++depthMismatch;
+        } else {
+          ++hitMismatch;
         }
-        if (!hit) continue;
-        ++hits;
-        double err = std::abs(double(ours) - tp) * voxelsPerT(scene.data, inst, d);
-        maxErr = std::max(maxErr, err);
-        if (err > 1e-3) ++depthMismatch;
+        float t = 0;
+        std::uint32_t oi = 0;
+        glm::ivec3 ov(0);
+        if (hit) arrays.vsTraceClosest(o, d, 0.0f, tMax, t, oi, ov);
+        bool oursNearer = hit && (!hitp || double(ours) < tp);
+        bool tie = oursNearer ? grazes(scene.data, oi, ov, o, d) : grazes(scene.data, inst, vp, o, d);
+        if (!tie && ++notTies <= 5) {
+          std::printf("  view %zu texel (%d %d): ours %s t=%.9g (instance %u voxel %d %d %d), peer %s t=%.9g (instance %u "
+                      "voxel %d %d %d), %.2e voxel apart\n",
+                      i, x, y, hit ? "hit" : "miss", ours, oi, ov.x, ov.y, ov.z, hitp ? "hit" : "miss", tp, inst, vp.x,
+                      vp.y, vp.z, err);
+        }
       }
   }
-  std::printf("%s: %zu views, %zu texels (%zu hits), %zu hit/miss mismatches (%zu not grazing), %zu depth > 1e-3 "
-              "voxel, max %.2e\n",
-              scene.name.c_str(), views.size(), texels, hits, hitMismatch, nonGrazing, depthMismatch, maxErr);
+  std::printf("%s: %zu views, %zu texels (%zu hits): %zu hit/miss and %zu depth (> 1e-3 voxel) disagreements, %zu of "
+              "them not edge/corner ties; max depth error elsewhere %.2e voxel\n",
+              scene.name.c_str(), views.size(), texels, hits, hitMismatch, depthMismatch, notTies, maxErr);
   EXPECT_GT(hits, 0u);
-  EXPECT_EQ(nonGrazing, 0u);
-  EXPECT_LE(double(hitMismatch), maxMismatch * double(texels));
-  EXPECT_LE(double(depthMismatch), 1e-5 * double(texels));
+  EXPECT_EQ(notTies, 0u);
+  EXPECT_LE(double(hitMismatch + depthMismatch), maxTies * double(texels));
 }
 
 std::vector<gpu::TraceView> standardViews(const Aabb& b, int res) {
@@ -353,6 +361,31 @@ TEST(TraceCpuReference, InstancedViews) {
 TEST(TraceCpuReference, City512Views) {
   auto scene = test::city512Scene();
   expectViewsAgree(scene, standardViews(scene.data.worldBounds, 256));
+}
+
+// The demo scene (written by voxel/demo_world.cpp, loaded from its scene file), every light view at a
+// reduced resolution (the view matrices do not depend on it).
+TEST(TraceCpuReference, DemoSceneViews) {
+  auto dir = test::scratchDir("trace_cpu_demo");
+  auto files = writeDemoWorld(dir);
+  Scene loaded = Scene::load(files.back());
+  test::TestScene scene;
+  scene.name = "demo";
+  for (const VoxelObject& object : loaded.objects()) scene.brickmaps.push_back(std::make_unique<Brickmap>(object.brickmap));
+  scene.instances.assign(loaded.instances().begin(), loaded.instances().end());
+  scene.finish();
+  std::vector<gpu::TraceView> views;
+  for (const LightView& v : loaded.lightViews()) {
+    gpu::TraceView view = v.trace;
+    view.info.x = view.info.y = 192;
+    view.rect = glm::ivec4(0, 0, 192, 192);
+    views.push_back(view);
+  }
+  ASSERT_EQ(views.size(), 8u);  // sun, lamp, six torch faces
+  // The torch sits on a corner of the ground's 0.5-unit voxel lattice, so the texel rays on its cube faces'
+  // diagonals run exactly through voxel edges: measured 55 of 294,912 texels (1.9e-4) are such ties (12 on
+  // hit/miss, 43 on depth), all verified above as grazing contacts. The budget for ties is 3e-4 here.
+  expectViewsAgree(scene, views, 3e-4);
 }
 
 // Instances of every third-party asset, rotated and scaled non-uniformly.
