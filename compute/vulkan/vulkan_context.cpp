@@ -141,6 +141,18 @@ std::string deviceList(const std::vector<VulkanDeviceInfo>& devices) {
   return out.str();
 }
 
+// The instance's physical devices (into `handles`) and their descriptions, in the loader's order.
+std::vector<VulkanDeviceInfo> enumerateDevices(VkInstance instance, std::vector<VkPhysicalDevice>& handles) {
+  std::uint32_t count = 0;
+  vk::check(vkEnumeratePhysicalDevices(instance, &count, nullptr), "vkEnumeratePhysicalDevices");
+  handles.resize(count);
+  vk::check(vkEnumeratePhysicalDevices(instance, &count, handles.data()), "vkEnumeratePhysicalDevices");
+  handles.resize(count);
+  std::vector<VulkanDeviceInfo> devices;
+  for (std::uint32_t i = 0; i < count; ++i) devices.push_back(describe(handles[i], i));
+  return devices;
+}
+
 }  // namespace
 
 const char* toString(VulkanDeviceType type) {
@@ -163,13 +175,8 @@ std::vector<VulkanDeviceInfo> listVulkanDevices() {
   if (r == VK_ERROR_INCOMPATIBLE_DRIVER) return {};
   vk::check(r, "vkCreateInstance");
   vk::UniqueInstance instance(raw);
-  std::uint32_t count = 0;
-  vk::check(vkEnumeratePhysicalDevices(instance.get(), &count, nullptr), "vkEnumeratePhysicalDevices");
-  std::vector<VkPhysicalDevice> pds(count);
-  vk::check(vkEnumeratePhysicalDevices(instance.get(), &count, pds.data()), "vkEnumeratePhysicalDevices");
-  std::vector<VulkanDeviceInfo> out;
-  for (std::uint32_t i = 0; i < count; ++i) out.push_back(describe(pds[i], i));
-  return out;
+  std::vector<VkPhysicalDevice> handles;
+  return enumerateDevices(instance.get(), handles);
 }
 
 std::size_t chooseVulkanDevice(const std::vector<VulkanDeviceInfo>& devices, int deviceIndex,
@@ -260,12 +267,8 @@ VulkanContext::VulkanContext(const VulkanContextOptions& options) {
     messenger_ = vk::UniqueMessenger(instance_.get(), m);
   }
 
-  std::uint32_t count = 0;
-  vk::check(vkEnumeratePhysicalDevices(instance_.get(), &count, nullptr), "vkEnumeratePhysicalDevices");
-  std::vector<VkPhysicalDevice> pds(count);
-  vk::check(vkEnumeratePhysicalDevices(instance_.get(), &count, pds.data()), "vkEnumeratePhysicalDevices");
-  std::vector<VulkanDeviceInfo> devices;
-  for (std::uint32_t i = 0; i < count; ++i) devices.push_back(describe(pds[i], i));
+  std::vector<VkPhysicalDevice> pds;
+  std::vector<VulkanDeviceInfo> devices = enumerateDevices(instance_.get(), pds);
   std::size_t chosen = chooseVulkanDevice(devices, options.deviceIndex, options.deviceName);
   physical_ = pds[chosen];
   info_ = devices[chosen];
