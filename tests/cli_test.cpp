@@ -14,18 +14,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string quote(const fs::path& p) {
-  std::string q(1, '\'');
-  q += p.string();
-  q += '\'';
-  return q;
-}
-
+using vs::test::contains;
+using vs::test::quote;
 int cli(const std::string& args, std::string& out) { return vs::test::runCli(args, out); }
-
-bool contains(const std::string& haystack, const std::string& needle) {
-  return haystack.find(needle) != std::string::npos;
-}
 
 void writeFile(const fs::path& p, const std::string& text) {
   std::ofstream f(p);

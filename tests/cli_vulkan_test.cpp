@@ -19,18 +19,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string quote(const fs::path& p) {
-  std::string q = "'";
-  q += p.string();
-  q += '\'';
-  return q;
-}
-
+using vs::test::contains;
+using vs::test::quote;
 int cli(const std::string& args, std::string& out) { return vs::test::runCli(args, out); }
-
-bool contains(const std::string& haystack, const std::string& needle) {
-  return haystack.find(needle) != std::string::npos;
-}
 
 // A sun (32 texels), a spot (64) and a point light (six 16-texel faces): eight views of three sizes.
 fs::path writeScene(const fs::path& dir) {

@@ -46,6 +46,18 @@ int runCommand(const std::string& command, std::string& output) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
+std::string quote(const std::filesystem::path& p) {
+  // Appending keeps GCC 12's -Wrestrict false positive on chained string operator+ away.
+  std::string q(1, '\'');
+  q += p.string();
+  q += '\'';
+  return q;
+}
+
+bool contains(const std::string& haystack, const std::string& needle) {
+  return haystack.find(needle) != std::string::npos;
+}
+
 int runCli(const std::string& args, std::string& output) { return runCommand(cliPath() + " " + args, output); }
 
 std::filesystem::path unwritableDir(const std::filesystem::path& scratch) {

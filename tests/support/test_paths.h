@@ -21,6 +21,12 @@ std::string cliPath();
 // Runs a shell command, returns its exit status; stdout+stderr captured into `output`.
 int runCommand(const std::string& command, std::string& output);
 
+// A path in single quotes for a shell command line (test paths hold no quotes).
+std::string quote(const std::filesystem::path& p);
+
+// Whether `haystack` contains `needle`.
+bool contains(const std::string& haystack, const std::string& needle);
+
 // Runs the CLI with `args` (a shell-quoted argument string); returns its exit status.
 int runCli(const std::string& args, std::string& output);
 
