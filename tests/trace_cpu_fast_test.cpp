@@ -163,3 +163,157 @@ TEST(TraceCpuFast, LaneTracerBothTableLevelsMatchReference) {
 
 }  // namespace
 }  // namespace vs
+
+namespace vs {
+namespace {
+
+// A plain voxel-by-voxel walk in the canonical order of traverse.h, written out here: exit through the nearest
+// plane (the highest axis on ties), step one voxel, test it. The hierarchical walk skips empty cells of up to
+// 128 voxels and the fast path skips larger empty boxes still; both must stop where this walk stops, at the
+// same t bit for bit.
+bool voxelWalk(const Brickmap& bm, gpu::SceneArrays& arrays, glm::vec3 o, glm::vec3 d, float tMax, float& tHit,
+               glm::ivec3& voxel) {
+  gpu::SceneArrays::ObjectWalk w;
+  if (!arrays.vsObjectWalkBegin(0, o, d, 0.0f, tMax, w)) return false;
+  for (;;) {
+    if (bm.isSolid(w.v)) {
+      tHit = w.tEnter;
+      voxel = w.v;
+      return true;
+    }
+    float tExit = gpu::VS_T_INFINITY;
+    int exitAxis = -1;
+    for (int a = 0; a < 3; ++a) {
+      if (w.d[a] == 0.0f) continue;
+      float ta = (float(w.d[a] > 0.0f ? w.v[a] + 1 : w.v[a]) - w.o[a]) * w.invD[a];
+      if (ta <= tExit) tExit = ta, exitAxis = a;
+    }
+    if (exitAxis < 0 || tExit >= w.t1) return false;
+    w.v[exitAxis] += w.d[exitAxis] > 0.0f ? 1 : -1;
+    if (w.v[exitAxis] < w.obj.voxelMin[exitAxis] || w.v[exitAxis] >= w.obj.voxelMax[exitAxis]) return false;
+    w.tEnter = std::max(tExit, w.tEnter);
+  }
+}
+
+TEST(TraceCpuCanonicalOrder, HierarchicalWalkEqualsVoxelWalk) {
+  std::vector<test::TestScene> scenes;
+  scenes.push_back(test::floorScene());
+  scenes.push_back(test::city512Scene());
+  for (const test::TestScene& scene : scenes) {
+    gpu::SceneArrays arrays(scene.data);
+    const Brickmap& bm = *scene.brickmaps[0];
+    std::vector<gpu::TraceView> views = {test::directionalView(scene.data.worldBounds, {-0.4f, -1.0f, -0.3f}, 96),
+                                         gridView(glm::vec3(48, 8, 48), {1, -1, 0}, 96.0f, 96),
+                                         gridView(glm::vec3(256, 128, 256), {-1, -1, 1}, 96.0f, 96),
+                                         test::distanceView({40.0f, 20.0f, 40.0f}, {0.3f, -1, 0.2f}, 600.0f, 96)};
+    std::size_t hits = 0;
+    for (const gpu::TraceView& view : views)
+      for (int y = 0; y < view.info.y; ++y)
+        for (int x = 0; x < view.info.x; ++x) {
+          glm::vec3 o(0), d(0);
+          float tMax = 0;
+          arrays.vsViewRay(view, {x, y}, o, d, tMax);
+          glm::vec3 lo = arrays.vsApplyAffine(arrays.instances[0].worldToBrick, o);
+          glm::vec3 ld = arrays.vsApplyLinear(arrays.instances[0].worldToBrick, d);
+          float t = 0, tv = 0;
+          glm::ivec3 v(0), vv(0);
+          bool hit = arrays.vsTraceObject(0, lo, ld, 0.0f, tMax, t, v);
+          bool hitv = voxelWalk(bm, arrays, lo, ld, tMax, tv, vv);
+          ASSERT_EQ(hit, hitv) << scene.name << " texel " << x << "," << y;
+          if (!hit) continue;
+          ++hits;
+          ASSERT_EQ(v, vv) << scene.name << " texel " << x << "," << y;
+          ASSERT_EQ(std::memcmp(&t, &tv, sizeof t), 0) << scene.name << " texel " << x << "," << y;
+        }
+    EXPECT_GT(hits, 1000u) << scene.name;
+  }
+}
+
+// Every empty brick's box (encodeEmptyRadii) holds no solid voxel, and a cube of bricks one larger would.
+TEST(TraceCpuFast, EmptyBrickBoxesAreEmptyAndMaximal) {
+  auto scene = test::floorScene();
+  LaneTables tables;
+  ASSERT_TRUE(buildLaneTables(scene.data, tables));
+  ASSERT_FALSE(tables.brickCodes.empty());
+  const Brickmap& bm = *scene.brickmaps[0];
+  const gpu::ObjectRecord& obj = scene.data.objects[0];
+  const glm::ivec3 dims = 16 * glm::ivec3(obj.regionDims), origin = 16 * glm::ivec3(obj.regionOrigin);
+  auto brickSolid = [&](glm::ivec3 b) {
+    for (int z = 0; z < 8; ++z)
+      for (int y = 0; y < 8; ++y)
+        for (int x = 0; x < 8; ++x)
+          if (bm.isSolid(b * 8 + glm::ivec3(x, y, z))) return true;
+    return false;
+  };
+  std::vector<char> solid(std::size_t(dims.x) * dims.y * dims.z);
+  for (int z = 0; z < dims.z; ++z)
+    for (int y = 0; y < dims.y; ++y)
+      for (int x = 0; x < dims.x; ++x)
+        solid[(std::size_t(z) * dims.y + y) * dims.x + x] = brickSolid(origin + glm::ivec3(x, y, z));
+  auto anySolidWithin = [&](glm::ivec3 c, int r) {
+    for (int z = std::max(0, c.z - r); z <= std::min(dims.z - 1, c.z + r); ++z)
+      for (int y = std::max(0, c.y - r); y <= std::min(dims.y - 1, c.y + r); ++y)
+        for (int x = std::max(0, c.x - r); x <= std::min(dims.x - 1, c.x + r); ++x)
+          if (solid[(std::size_t(z) * dims.y + y) * dims.x + x]) return true;
+    return false;
+  };
+  std::size_t boxes = 0, larger = 0;
+  for (int z = 0; z < dims.z; ++z)
+    for (int y = 0; y < dims.y; ++y)
+      for (int x = 0; x < dims.x; ++x) {
+        std::int32_t code = tables.brickCodes[std::size_t(tables.objectBrickBase[0]) + (std::size_t(z) * dims.y + y) * dims.x + x];
+        bool isSolid = solid[(std::size_t(z) * dims.y + y) * dims.x + x];
+        ASSERT_EQ(isSolid, code >= 0 || code == kLaneFullBrick) << x << "," << y << "," << z;
+        if (isSolid) continue;
+        int radius = (-1 - code) & 255, log2 = (-1 - code) >> 8;
+        if (log2 != gpu::VS_BRICK_LOG2) {
+          // An aligned empty sector or region: no solid brick inside it.
+          int n = 1 << (log2 - gpu::VS_BRICK_LOG2);
+          glm::ivec3 lo = ((origin + glm::ivec3(x, y, z)) >> (log2 - gpu::VS_BRICK_LOG2)) * n - origin;
+          for (int k = 0; k < n * n * n; ++k) {
+            glm::ivec3 b = lo + glm::ivec3(k % n, (k / n) % n, k / (n * n));
+            ASSERT_FALSE(solid[(std::size_t(b.z) * dims.y + b.y) * dims.x + b.x]);
+          }
+          ++larger;
+          continue;
+        }
+        ++boxes;
+        ASSERT_FALSE(anySolidWithin({x, y, z}, radius)) << x << "," << y << "," << z << " radius " << radius;
+        if (radius < kLaneMaxEmptyRadius) ASSERT_TRUE(anySolidWithin({x, y, z}, radius + 1)) << x << "," << y << "," << z;
+      }
+  EXPECT_GT(boxes, 100u);
+  EXPECT_GT(larger, 0u);
+}
+
+// A CpuTracer keeps its tables between traces and rebuilds them after voxelsChanged(): every trace equals the
+// reference of the scene as it is then.
+TEST(CpuTracer, KeepsTablesUntilVoxelsChange) {
+  auto scene = test::floorScene();
+  std::vector<gpu::TraceView> views = {test::directionalView(scene.data.worldBounds, {-0.4f, -1.0f, -0.3f}, 96),
+                                       test::distanceView({40.0f, 60.0f, 40.0f}, {0.1f, -1, 0.2f}, 300.0f, 64)};
+  CpuTracer tracer(scene.data);
+  std::vector<ShadowLayer> first, second, reference;
+  tracer.trace(views, first, CpuTracePath::Interleaved, 2);
+  tracer.trace(views, second, CpuTracePath::Interleaved, 2);
+  traceCpu(scene.data, views, reference, CpuTracePath::Reference, 2);
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    EXPECT_EQ(differingTexels(reference[i], first[i]), 0u);
+    EXPECT_EQ(differingTexels(reference[i], second[i]), 0u);
+  }
+  // A new block on the floor, the scene's arrays rebuilt in place.
+  scene.brickmaps[0]->fillBox(VoxelBox{{20, 8, 60}, {36, 30, 76}}, 1);
+  scene.finish();
+  tracer.voxelsChanged();
+  std::vector<ShadowLayer> edited, editedReference;
+  tracer.trace(views, edited, CpuTracePath::Interleaved, 2);
+  traceCpu(scene.data, views, editedReference, CpuTracePath::Reference, 2);
+  std::size_t changed = 0;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    EXPECT_EQ(differingTexels(editedReference[i], edited[i]), 0u);
+    changed += differingTexels(reference[i], edited[i]);
+  }
+  EXPECT_GT(changed, 100u);
+}
+
+}  // namespace
+}  // namespace vs

@@ -87,7 +87,17 @@ Agreement compareWithPeer(const SceneData& scene, const OpenVdbPeer& peer, const
     if (!hit) continue;
     double err = std::abs(double(t) - tp) * voxelsPerT(scene, inst, r.d);
     a.maxDepthErrorVoxels = std::max(a.maxDepthErrorVoxels, err);
-    if (err > depthTolVoxels) ++a.depthMismatch;
+    if (err <= depthTolVoxels) continue;
+    // Both hit, at different voxels: legitimate only when the nearer of the two is touched over zero length
+    // (the farther tracer passed through the edge on the other side of the tie).
+    ++a.depthMismatch;
+    bool oursNearer = double(t) < tp;
+    bool grazing = oursNearer ? grazes(scene, inst, voxel, r.o, r.d) : grazes(scene, instp, voxelp, r.o, r.d);
+    if (!grazing && ++a.nonGrazingMismatch <= 5)
+      std::printf("  depth mismatch: o=(%.9g %.9g %.9g) d=(%.9g %.9g %.9g) ours t=%.9g voxel=(%d %d %d), "
+                  "peer t=%.9g voxel=(%d %d %d)\n",
+                  r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, t, voxel.x, voxel.y, voxel.z, tp, voxelp.x, voxelp.y,
+                  voxelp.z);
   }
   return a;
 }
@@ -151,10 +161,10 @@ void expectAgreement(const test::TestScene& scene, const std::vector<Ray>& rays)
               "%.2e voxel\n",
               scene.name.c_str(), a.rays, a.hitMismatch, a.nonGrazingMismatch, a.depthMismatch,
               a.maxDepthErrorVoxels);
-  // The battery aims at edges and corners on purpose: disagreements are allowed only on grazing contacts.
+  // The battery aims at edges and corners on purpose: disagreements (on hit/miss, or on depth when both hit)
+  // are allowed only on grazing contacts, where the two tracers take different sides of an exact tie.
   EXPECT_EQ(a.nonGrazingMismatch, 0u) << scene.name;
-  EXPECT_LE(double(a.hitMismatch), 1e-3 * double(a.rays)) << scene.name;
-  EXPECT_EQ(a.depthMismatch, 0u) << scene.name;
+  EXPECT_LE(double(a.hitMismatch + a.depthMismatch), 1e-3 * double(a.rays)) << scene.name;
 }
 
 TEST(TraceCpuHostile, FloorBattery) {
@@ -278,7 +288,7 @@ TEST(TraceCpuHostile, TenThousandInstancesBvhMatchesBruteForce) {
 // contact (the ray touches that voxel over at most 1e-3 voxel: an edge or corner tie, broken differently by
 // the two walks); every other disagreement fails the test.
 void expectViewsAgree(const test::TestScene& scene, const std::vector<gpu::TraceView>& views,
-                      double maxTies = 1e-5) {
+                      double maxHitMissTies = 1e-5, double maxTies = 1e-5) {
   std::vector<ShadowLayer> layers;
   traceCpu(scene.data, views, layers);
   auto pointers = scene.brickmapPointers();
@@ -332,6 +342,7 @@ void expectViewsAgree(const test::TestScene& scene, const std::vector<gpu::Trace
               scene.name.c_str(), views.size(), texels, hits, hitMismatch, depthMismatch, notTies, maxErr);
   EXPECT_GT(hits, 0u);
   EXPECT_EQ(notTies, 0u);
+  EXPECT_LE(double(hitMismatch), maxHitMissTies * double(texels));
   EXPECT_LE(double(hitMismatch + depthMismatch), maxTies * double(texels));
 }
 
@@ -355,7 +366,7 @@ TEST(TraceCpuReference, InstancedViews) {
   auto scene = test::manyInstancesScene(400);
   // 400 rotated, stretched copies of a 3-voxel-wide object put many voxel edges in the rays' way: one texel
   // of 73,728 grazes an edge (checked above as grazing), so this scene gets a 1e-4 budget for such ties.
-  expectViewsAgree(scene, standardViews(scene.data.worldBounds, 128), 1e-4);
+  expectViewsAgree(scene, standardViews(scene.data.worldBounds, 128), 1e-4, 1e-4);
 }
 
 TEST(TraceCpuReference, City512Views) {
@@ -383,9 +394,11 @@ TEST(TraceCpuReference, DemoSceneViews) {
   }
   ASSERT_EQ(views.size(), 8u);  // sun, lamp, six torch faces
   // The torch sits on a corner of the ground's 0.5-unit voxel lattice, so the texel rays on its cube faces'
-  // diagonals run exactly through voxel edges: measured 55 of 294,912 texels (1.9e-4) are such ties (12 on
-  // hit/miss, 43 on depth), all verified above as grazing contacts. The budget for ties is 3e-4 here.
-  expectViewsAgree(scene, views, 3e-4);
+  // diagonals run exactly through voxel edges. Both tracers take such ties from the highest axis down, but
+  // OpenVDB's DDA accumulates its plane times from the start of each span, so its exact ties are broken by
+  // rounding: measured 11 of 294,912 texels (3.7e-5) end on different sides of a tie, 1 on hit/miss (within the
+  // 1e-5 hit/miss budget, i.e. >= 99.999% agreement) and 10 on depth, each verified above as a grazing contact.
+  expectViewsAgree(scene, views, 1e-5, 5e-5);
 }
 
 // Instances of every third-party asset, rotated and scaled non-uniformly.

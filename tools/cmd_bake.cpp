@@ -28,13 +28,14 @@ std::vector<ShadowLayer> traceOnCpu(const Scene& scene, const std::vector<LightV
   for (const LightView& v : views) totalRows += std::uint64_t(v.trace.info.y);
   Progress progress("tracing");
   std::vector<ShadowLayer> layers(views.size());
+  CpuTracer tracer(scene.data());
   for (std::size_t i = 0; i < views.size(); ++i) {
     gpu::TraceView band = views[i].trace;
     const glm::ivec4 whole = band.rect;
     std::vector<ShadowLayer> one(1);
     for (int y0 = whole.y; y0 < whole.w; y0 += kRowsPerBand) {
       band.rect = glm::ivec4(whole.x, y0, whole.z, std::min(whole.w, y0 + kRowsPerBand));
-      traceCpu(scene.data(), std::span<const gpu::TraceView>(&band, 1), one, CpuTracePath::Interleaved, threads);
+      tracer.trace(std::span<const gpu::TraceView>(&band, 1), one, CpuTracePath::Interleaved, threads);
       doneRows += std::uint64_t(band.rect.w - band.rect.y);
       progress.update(doneRows, totalRows);
     }

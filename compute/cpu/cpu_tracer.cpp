@@ -1,6 +1,7 @@
 #include "compute/cpu/cpu_tracer.h"
 
 #include <algorithm>
+#include <chrono>
 #include <string>
 
 #include <tbb/blocked_range2d.h>
@@ -32,8 +33,20 @@ void checkView(const gpu::TraceView& view, std::size_t index) {
 
 }  // namespace
 
+CpuTracer::CpuTracer(const SceneData& scene) : scene_(&scene), tables_(std::make_unique<LaneTables>()) {}
+
+CpuTracer::~CpuTracer() = default;
+
+void CpuTracer::voxelsChanged() { tablesBuilt_ = false; }
+
 void traceCpu(const SceneData& scene, std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers,
               CpuTracePath path, int threads) {
+  CpuTracer(scene).trace(views, layers, path, threads);
+}
+
+void CpuTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers, CpuTracePath path,
+                      int threads) {
+  const SceneData& scene = *scene_;
   layers.resize(views.size());
   std::vector<TexelTile> jobs;
   for (std::size_t i = 0; i < views.size(); ++i) {
@@ -51,9 +64,14 @@ void traceCpu(const SceneData& scene, std::span<const gpu::TraceView> views, std
   }
 
   gpu::SceneArrays arrays(scene);
-  LaneTables laneTables;
-  const bool lanes =
-      path == CpuTracePath::Interleaved && laneTracerSupported(scene) && buildLaneTables(scene, laneTables);
+  if (path == CpuTracePath::Interleaved && !tablesBuilt_) {
+    auto start = std::chrono::steady_clock::now();
+    lanes_ = laneTracerSupported(scene) && buildLaneTables(scene, *tables_);
+    tablesBuilt_ = true;
+    tableSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  const LaneTables& laneTables = *tables_;
+  const bool lanes = path == CpuTracePath::Interleaved && lanes_;
   auto run = [&] {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, jobs.size()), [&](const tbb::blocked_range<std::size_t>& r) {
       if (lanes) {

@@ -2,6 +2,7 @@
 #ifndef VOXSHADOW_CPU_TRACER_H
 #define VOXSHADOW_CPU_TRACER_H
 
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -23,9 +24,42 @@ enum class CpuTracePath {
   Interleaved,
 };
 
-// Traces every view's texel rectangle into layers[i] (resized to the view's size when it differs; texels
-// outside the rectangle keep their values). Preconditions: views[i].info.xy > 0, rect inside the view.
-// threads <= 0 uses every hardware thread.
+struct LaneTables;
+
+// The CPU backend bound to one scene. The fast path's lookup tables (dense per-object codes of every sector
+// and brick, and the empty boxes around empty bricks; compute/cpu/lane_tracer.h) are derived from the voxel
+// arrays once and kept between traces, so a frame in which no voxel changed rebuilds nothing; moving
+// instances changes no table.
+class CpuTracer {
+ public:
+  // Precondition: `scene` outlives the tracer.
+  explicit CpuTracer(const SceneData& scene);
+  ~CpuTracer();
+  CpuTracer(const CpuTracer&) = delete;
+  CpuTracer& operator=(const CpuTracer&) = delete;
+
+  // Must be called after the scene's voxel arrays changed (edits, compaction, objects added); the tables are
+  // rebuilt on the next trace.
+  void voxelsChanged();
+
+  // Traces every view's texel rectangle into layers[i] (resized to the view's size when it differs; texels
+  // outside the rectangle keep their values). Preconditions: views[i].info.xy > 0, rect inside the view (else
+  // vs::Error(BadInput)). threads <= 0 uses every hardware thread.
+  void trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers,
+             CpuTracePath path = CpuTracePath::Interleaved, int threads = 0);
+
+  // Seconds the last table build took (0 before the first fast-path trace).
+  double tableBuildSeconds() const { return tableSeconds_; }
+
+ private:
+  const SceneData* scene_;
+  std::unique_ptr<LaneTables> tables_;
+  bool tablesBuilt_ = false;
+  bool lanes_ = false;
+  double tableSeconds_ = 0.0;
+};
+
+// One trace with a CpuTracer made for the call (the tables are built each time).
 void traceCpu(const SceneData& scene, std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers,
               CpuTracePath path = CpuTracePath::Interleaved, int threads = 0);
 

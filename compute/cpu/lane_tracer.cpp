@@ -25,6 +25,60 @@ bool laneTracerSupported(const SceneData& scene) {
 
 namespace {
 
+// Replaces the code of every empty brick of one object's brick grid (nx * ny * nz codes, x fastest) by
+// -1 - (r | log2 << 8): the empty box around it is the cube of (2r+1)^3 aligned cells of 2^log2 voxels centred
+// on its cell. Either the cube of bricks (log2 3) whose radius r is the chessboard distance to the nearest
+// non-empty brick less one (bricks outside the grid hold none; capped at kLaneMaxEmptyRadius), or, when that
+// is smaller, the brick's empty sector or region (r = 0). Two raster passes over the 26-neighbourhood give the
+// exact chessboard distance.
+void encodeEmptyRadii(std::int32_t* codes, int nx, int ny, int nz) {
+  constexpr int kFar = kLaneMaxEmptyRadius + 1;
+  const int px = nx + 2, py = ny + 2, pz = nz + 2;
+  const std::size_t plane = std::size_t(px) * py;
+  std::vector<std::uint8_t> dist(plane * pz, std::uint8_t(kFar));
+  auto at = [&](int x, int y, int z) { return (std::size_t(z) * py + y) * px + x; };
+  for (int z = 0; z < nz; ++z)
+    for (int y = 0; y < ny; ++y)
+      for (int x = 0; x < nx; ++x) {
+        std::int32_t code = codes[(std::size_t(z) * ny + y) * nx + x];
+        if (code >= 0 || code == kLaneFullBrick) dist[at(x + 1, y + 1, z + 1)] = 0;
+      }
+  // The 13 neighbours that come before a cell in raster order (the other 13 are their mirror images).
+  std::ptrdiff_t before[13];
+  int n = 0;
+  for (int dz = -1; dz <= 0; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        if (dz == 0 && (dy > 0 || (dy == 0 && dx >= 0))) continue;
+        before[n++] = (std::ptrdiff_t(dz) * py + dy) * px + dx;
+      }
+  auto relax = [&](std::size_t i, int sign) {
+    int best = dist[i];
+    for (std::ptrdiff_t off : before) best = std::min(best, dist[std::size_t(std::ptrdiff_t(i) + sign * off)] + 1);
+    dist[i] = std::uint8_t(std::min(best, kFar));
+  };
+  for (int z = 1; z <= nz; ++z)
+    for (int y = 1; y <= ny; ++y)
+      for (int x = 1; x <= nx; ++x) relax(at(x, y, z), 1);
+  for (int z = nz; z >= 1; --z)
+    for (int y = ny; y >= 1; --y)
+      for (int x = nx; x >= 1; --x) relax(at(x, y, z), -1);
+  for (int z = 0; z < nz; ++z)
+    for (int y = 0; y < ny; ++y)
+      for (int x = 0; x < nx; ++x) {
+        std::int32_t& code = codes[(std::size_t(z) * ny + y) * nx + x];
+        if (code >= 0 || code == kLaneFullBrick) continue;
+        // The empty sector or region around the brick (code = its log2 negated) may be the larger box.
+        int log2 = -code, radius = int(dist[at(x + 1, y + 1, z + 1)]) - 1;
+        if (((2 * radius + 1) << gpu::VS_BRICK_LOG2) < (1 << log2)) {
+          radius = 0;
+        } else {
+          log2 = gpu::VS_BRICK_LOG2;
+        }
+        code = -1 - (radius | (log2 << 8));
+      }
+}
+
 // The brick level of LaneTables, from its sector codes; left empty when too large.
 void buildBrickCodes(const SceneData& scene, LaneTables& tables, std::size_t maxBrickCodes) {
   std::size_t total = tables.sectorCodes.size() * 64u;
@@ -78,6 +132,7 @@ void buildBrickCodes(const SceneData& scene, LaneTables& tables, std::size_t max
             tables.brickCodes[index] = value;
           }
         }
+    encodeEmptyRadii(tables.brickCodes.data() + base, bdx, bdy, 4 * sdz);
   }
 }
 
@@ -154,6 +209,9 @@ struct alignas(32) Lanes {
   // Between the parts of a step (beginStepLanes, lookupLanes, advanceLanes): the voxel's cell log2, whether
   // it is solid, and which lanes walk this step.
   int stepLog2[kLanes], stepHit[kLanes], stepWalking[kLanes];
+  // The empty box of the step: the cube of (2 * stepRadius + 1)^3 aligned cells of 2^stepLog2 voxels centred on
+  // the voxel's cell (radius 0: the aligned cell itself).
+  int stepRadius[kLanes];
   int stepCode[kLanes];  // the voxel's brick code (LaneTables::brickCodes), read before lookupLanes
   // The object's sector-code table: first code, sector coordinate of code 0, codes per row and per layer.
   int sectorBase[kLanes];
@@ -291,6 +349,7 @@ void lookupLanes(const gpu::SceneArrays& arrays, const LaneTables& tables, Lanes
   // vsWalkCellLog2 up to the brick: whether the voxel's brick is present, else the empty cell's log2; the
   // brick's cell mask, fullness and first occupancy word.
   __m256i brickPresent, emptyLog2, fullBrick, occupancyBase, brickCode;
+  __m256i emptyRadius = zero;
   __m256i cellLo = zero, cellHi = zero;  // read on the sector level only
   const bool brickLevel = !tables.brickCodes.empty();
   if (brickLevel) {
@@ -298,7 +357,9 @@ void lookupLanes(const gpu::SceneArrays& arrays, const LaneTables& tables, Lanes
     fullBrick = _mm256_and_si256(walking, _mm256_cmpeq_epi32(brickCode, _mm256_set1_epi32(kLaneFullBrick)));
     brickPresent =
         _mm256_or_si256(fullBrick, _mm256_and_si256(walking, _mm256_cmpgt_epi32(brickCode, _mm256_set1_epi32(-1))));
-    emptyLog2 = _mm256_sub_epi32(zero, brickCode);
+    __m256i box = _mm256_sub_epi32(_mm256_set1_epi32(-1), brickCode);  // r | log2 << 8 (encodeEmptyRadii)
+    emptyLog2 = _mm256_srai_epi32(box, 8);
+    emptyRadius = _mm256_and_si256(box, _mm256_set1_epi32(255));
     occupancyBase = brickCode;
   } else {
     // The sector's code (region empty, sector empty, or its index) from the dense table, then the brick from
@@ -371,7 +432,35 @@ void lookupLanes(const gpu::SceneArrays& arrays, const LaneTables& tables, Lanes
   __m256i log2Size = select(emptyLog2, _mm256_set1_epi32(gpu::VS_CELL_LOG2), brickPresent);
   log2Size = select(log2Size, zero, cellPresent);
   store(L.stepLog2, log2Size);
+  store(L.stepRadius, _mm256_andnot_si256(brickPresent, emptyRadius));
   store(L.stepHit, hit);
+}
+
+// glm's scalar min(x, y) is (y < x) ? y : x and max(x, y) is (x < y) ? y : x: minps(y, x) and maxps(y, x).
+inline __m256 glmMin(__m256 x, __m256 y) { return _mm256_min_ps(y, x); }
+inline __m256 glmMax(__m256 x, __m256 y) { return _mm256_max_ps(y, x); }
+inline __m256 bcast(float f) { return _mm256_set1_ps(f); }
+
+// vsSettleCoord per lane: c lies between `near` (where the ray comes from) and `far`; moves it one voxel back
+// when the plane it was entered through is not crossed at t, or one forward when the plane ahead is. A plane at
+// exactly t counts as crossed where tieCrossed is set.
+inline __m256i settleLanes(__m256i c, __m256i near, __m256i far, __m256i dPositive, __m256 o, __m256 invD, __m256 t,
+                           __m256i tieCrossed) {
+  const __m256i one = _mm256_set1_epi32(1);
+  auto crossed = [&](__m256i plane) {
+    __m256 tp = _mm256_mul_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(plane), o), invD);
+    __m256i below = _mm256_castps_si256(_mm256_cmp_ps(tp, t, _CMP_LT_OQ));
+    __m256i tie = _mm256_and_si256(_mm256_castps_si256(_mm256_cmp_ps(tp, t, _CMP_EQ_OQ)), tieCrossed);
+    return _mm256_or_si256(below, tie);
+  };
+  __m256i step = select(_mm256_set1_epi32(-1), one, dPositive);
+  __m256i entryPlane = select(_mm256_add_epi32(c, one), c, dPositive);
+  __m256i aheadPlane = select(c, _mm256_add_epi32(c, one), dPositive);
+  __m256i back = _mm256_andnot_si256(_mm256_or_si256(_mm256_cmpeq_epi32(c, near), crossed(entryPlane)),
+                                     _mm256_set1_epi32(-1));
+  __m256i forward = _mm256_andnot_si256(_mm256_or_si256(back, _mm256_cmpeq_epi32(c, far)), crossed(aheadPlane));
+  c = select(c, _mm256_sub_epi32(c, step), back);
+  return select(c, _mm256_add_epi32(c, step), forward);
 }
 
 // The second half: moves every walking lane past its empty cell. Returns the lanes that finished (bit i) and
@@ -386,19 +475,22 @@ int advanceLanes(Lanes& L, int& hits) {
   __m256i v[3];
   for (int a = 0; a < 3; ++a) v[a] = load(L.v[a]);
 
-  // The exit of the empty cell: the smallest exact t over the axes, the lowest axis on ties.
-  __m256i size = _mm256_sllv_epi32(one, log2Size);
+  // The exit of the empty box: the smallest exact t over the axes, the highest axis on ties. The reference
+  // walks aligned cells only; a larger empty box around the voxel leads to the same voxels (the canonical
+  // order of traverse.h), with fewer steps.
+  const __m256i radius = load(L.stepRadius);
+  __m256i size = _mm256_sllv_epi32(_mm256_add_epi32(_mm256_add_epi32(radius, radius), one), log2Size);
   __m256i cellMin[3], dPositive[3], dNonZero[3];
   __m256 tExit = _mm256_set1_ps(gpu::VS_T_INFINITY);
   __m256i exitAxis = _mm256_set1_epi32(-1);
   for (int a = 0; a < 3; ++a) {
-    cellMin[a] = _mm256_andnot_si256(_mm256_sub_epi32(size, one), v[a]);
+    cellMin[a] = _mm256_sllv_epi32(_mm256_sub_epi32(_mm256_srav_epi32(v[a], log2Size), radius), log2Size);
     dPositive[a] = load(L.dPositive[a]);
     dNonZero[a] = load(L.dNonZero[a]);
     __m256i bound = select(cellMin[a], _mm256_add_epi32(cellMin[a], size), dPositive[a]);
     __m256 ta =
         _mm256_mul_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(bound), _mm256_load_ps(L.o[a])), _mm256_load_ps(L.invD[a]));
-    __m256i closer = _mm256_and_si256(dNonZero[a], _mm256_castps_si256(_mm256_cmp_ps(ta, tExit, _CMP_LT_OQ)));
+    __m256i closer = _mm256_and_si256(dNonZero[a], _mm256_castps_si256(_mm256_cmp_ps(ta, tExit, _CMP_LE_OQ)));
     tExit = _mm256_blendv_ps(tExit, ta, _mm256_castsi256_ps(closer));
     exitAxis = select(exitAxis, _mm256_set1_epi32(a), closer);
   }
@@ -409,8 +501,11 @@ int advanceLanes(Lanes& L, int& hits) {
   tExit = _mm256_max_ps(tEnter, tExit);
 
   __m256i next[3];
+  __m256i settle[3];
+  __m256i anySettle = zero;
   for (int a = 0; a < 3; ++a) {
-    __m256 p = _mm256_add_ps(_mm256_load_ps(L.o[a]), _mm256_mul_ps(_mm256_load_ps(L.d[a]), tExit));
+    __m256 dt = _mm256_mul_ps(_mm256_load_ps(L.d[a]), tExit);
+    __m256 p = _mm256_add_ps(_mm256_load_ps(L.o[a]), dt);
     __m256i isExit = _mm256_cmpeq_epi32(exitAxis, _mm256_set1_epi32(a));
     __m256i exitCoord = select(_mm256_sub_epi32(cellMin[a], one), _mm256_add_epi32(cellMin[a], size), dPositive[a]);
     // clamp(floor(p), lo, hi) is min(max(x, lo), hi) with glm's operand order: maxps(lo, x), minps(hi, .).
@@ -419,12 +514,30 @@ int advanceLanes(Lanes& L, int& hits) {
     __m256 f = _mm256_round_ps(p, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
     __m256i c = _mm256_cvttps_epi32(_mm256_min_ps(hi, _mm256_max_ps(lo, f)));
     __m256i moved = select(_mm256_min_epi32(c, v[a]), _mm256_max_epi32(c, v[a]), dPositive[a]);
+    // vsNearPlane: lanes whose coordinate needs vsSettleCoord (the test may differ from the reference's in
+    // rounding; either way the settled coordinate is the canonical one).
+    const __m256 absMask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+    __m256 dist = _mm256_and_ps(absMask, _mm256_sub_ps(p, _mm256_round_ps(p, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC)));
+    __m256 scale = _mm256_add_ps(bcast(1.0f), _mm256_add_ps(_mm256_and_ps(absMask, _mm256_load_ps(L.o[a])),
+                                                            _mm256_and_ps(absMask, dt)));
+    settle[a] = _mm256_andnot_si256(isExit, _mm256_and_si256(dNonZero[a], _mm256_castps_si256(_mm256_cmp_ps(
+                                                                              dist, _mm256_mul_ps(scale, bcast(1.0f / 65536.0f)), _CMP_LE_OQ))));
+    anySettle = _mm256_or_si256(anySettle, settle[a]);
     next[a] = select(select(v[a], moved, dNonZero[a]), exitCoord, isExit);
     __m256i outside = _mm256_or_si256(_mm256_cmpgt_epi32(load(L.voxelMin[a]), next[a]),
                                       _mm256_cmpeq_epi32(_mm256_cmpgt_epi32(load(L.voxelMax[a]), next[a]), zero));
     leaves = _mm256_or_si256(leaves, _mm256_and_si256(isExit, outside));
   }
 
+  if (!_mm256_testz_si256(anySettle, anySettle)) {
+    // vsSettleCoord between the current voxel and the cell's far face, ties crossed above the exit axis.
+    for (int a = 0; a < 3; ++a) {
+      __m256i far = select(cellMin[a], _mm256_sub_epi32(_mm256_add_epi32(cellMin[a], size), one), dPositive[a]);
+      __m256i settled = settleLanes(next[a], v[a], far, dPositive[a], _mm256_load_ps(L.o[a]),
+                                    _mm256_load_ps(L.invD[a]), tExit, _mm256_cmpgt_epi32(_mm256_set1_epi32(a), exitAxis));
+      next[a] = select(next[a], settled, settle[a]);
+    }
+  }
   __m256i continuing = _mm256_andnot_si256(_mm256_or_si256(hit, leaves), walking);
   for (int a = 0; a < 3; ++a) store(L.v[a], select(v[a], next[a], continuing));
   _mm256_store_ps(L.tEnter, _mm256_blendv_ps(tEnter, tExit, _mm256_castsi256_ps(continuing)));
@@ -432,10 +545,6 @@ int advanceLanes(Lanes& L, int& hits) {
   return laneMask(_mm256_andnot_si256(continuing, live));
 }
 
-// glm's scalar min(x, y) is (y < x) ? y : x and max(x, y) is (x < y) ? y : x: minps(y, x) and maxps(y, x).
-inline __m256 glmMin(__m256 x, __m256 y) { return _mm256_min_ps(y, x); }
-inline __m256 glmMax(__m256 x, __m256 y) { return _mm256_max_ps(y, x); }
-inline __m256 bcast(float f) { return _mm256_set1_ps(f); }
 
 // The scene of a batch: a BVH that is one leaf holding one instance (a single object, as baked and benched).
 struct SingleInstance {
@@ -568,6 +677,12 @@ void setupBatch(const gpu::SceneArrays& arrays, const SingleInstance& one, const
     __m256 e = _mm256_add_ps(lo[a], _mm256_mul_ps(ld[a], t0));
     __m256 f = _mm256_round_ps(e, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
     v[a] = _mm256_cvttps_epi32(glmMin(glmMax(f, bcast(float(vmin[a]))), bcast(float(vmax[a] - 1))));
+    // vsSettleCoord at t0, every plane at t0 crossed; not where d is 0.
+    __m256i dPositive = _mm256_castps_si256(_mm256_cmp_ps(ld[a], _mm256_setzero_ps(), _CMP_GT_OQ));
+    __m256i lowest = _mm256_set1_epi32(vmin[a]), highest = _mm256_set1_epi32(vmax[a] - 1);
+    __m256i settled = settleLanes(v[a], select(highest, lowest, dPositive), select(lowest, highest, dPositive),
+                                  dPositive, lo[a], invD[a], t0, _mm256_set1_epi32(-1));
+    v[a] = select(settled, v[a], _mm256_castps_si256(_mm256_cmp_ps(ld[a], _mm256_setzero_ps(), _CMP_EQ_OQ)));
   }
 
   alignas(32) float so[3][kLanes], sd[3][kLanes], slo[3][kLanes], sld[3][kLanes], sinv[3][kLanes], st0[kLanes],

@@ -1,6 +1,6 @@
 // lane_tracer.h: the CPU fast path. The portable object walk (compute/shared/traverse.h) of eight rays at
 // once, one ray per AVX2 lane: every lane performs the very IEEE operations of vsObjectWalkStep in the same
-// order (no fused multiply-add, glm's min/max operand order, floor by rounding toward -inf, the lowest axis on
+// order (no fused multiply-add, glm's min/max operand order, floor by rounding toward -inf, the highest axis on
 // exit ties), so each texel equals the reference per-ray traversal's bit for bit. No step is skipped: a lane
 // runs exactly the reference's sequence of cells. What is cheaper is how each step learns its cell size:
 // dense per-object tables (built per trace from the brickmap) answer "region / sector / brick empty" with one
@@ -35,7 +35,8 @@ bool laneTracerSupported(const SceneData& scene);
 // else the sector's global index; objectBase[i] is object i's first code, laid out like its region table with
 // 4^3 sectors per region slot (x fastest).
 // When every object's bricks fit kMaxLaneBrickCodes, brickCodes holds the same per brick coordinate (16^3 per
-// region slot): VS_BRICK_LOG2 negated where the brick is empty, kLaneFullBrick where it is full, else the
+// region slot): -1 - (r | log2 << 8) where the brick is empty (the empty box around it, see encodeEmptyRadii),
+// kLaneFullBrick where it is full, else the
 // global index of its first occupancy word. A step then reads one code and one occupancy word. The cell level
 // comes from the occupancy word too (a cell's mask bit is its occupancy byte != 0, brickmap_layout.h); the
 // table is built only when every brick of the scene satisfies that, so the answers are the cell mask's.
@@ -51,6 +52,10 @@ struct LaneTables {
 constexpr std::size_t kMaxLaneSectorCodes = std::size_t(1) << 24;
 constexpr std::size_t kMaxLaneBrickCodes = std::size_t(1) << 22;
 constexpr std::int32_t kLaneFullBrick = std::numeric_limits<std::int32_t>::min();
+// Largest radius (in bricks) of the empty cube recorded for an empty brick: a step then crosses up to 2r+1
+// bricks at once. 31 bricks (248 voxels) covers the open sky of any scene of DESIGN.md's sizes; more would
+// only save the last few steps of the longest rays.
+constexpr int kLaneMaxEmptyRadius = 31;
 bool buildLaneTables(const SceneData& scene, LaneTables& tables, std::size_t maxBrickCodes = kMaxLaneBrickCodes);
 
 // Traces every tile into layers[tile.view].texels (row stride layers[..].width).

@@ -8,8 +8,17 @@
 // runs on both sides, so that GPU and CPU agree texel for texel (DESIGN.md §6).
 //
 // Robust stepping: cells are integer coordinates; the exit axis of a cell is the smallest exact t at which the
-// ray crosses one of its faces; the coordinates of the other axes come from the exit point but are clamped
-// to the cell and never move against the ray, so no voxel is skipped by an epsilon and every loop ends.
+// ray crosses one of its faces; the coordinates of the other axes come from the exit point, clamped to the cell,
+// never moving against the ray, and then settled by comparing the t of the voxel planes themselves, so no voxel
+// is skipped by an epsilon and every loop ends.
+//
+// Canonical voxel order: the walk visits exactly the voxels of a voxel-by-voxel walk (a DDA) in which a plane
+// x = k counts as crossed at parameter t when (k - o.x) / d.x, computed as (float(k) - o.x) * invD.x, is below t;
+// planes crossed at the same t are taken from the highest axis down (z, then y, then x), which is the order
+// of OpenVDB's DDA. The walk's start voxel is the one the ray runs into at its entry t (every plane at that t
+// already crossed). So the voxel at which a ray stops, and its t, depend only on the ray and the voxels, not on
+// the sizes of the empty cells that were skipped: a tracer that skips larger empty boxes (compute/cpu) returns
+// the same texels bit for bit.
 //
 // The per-object arrays can outgrow one storage-buffer binding (maxStorageBufferRange); an includer that
 // splits them defines these readers before including this body. By default they index the named array.
@@ -107,6 +116,35 @@ int vsWalkCellLog2(VS_INOUT(ObjectWalk) w) {
   return ((word >> (voxelBit & 31u)) & 1u) != 0u ? -1 : 0;
 }
 
+// Whether the ray has crossed the plane `coord` of `axis` at parameter t, where planes at exactly t count as
+// crossed on the axes above `tieAxis` (-1: every axis, the start of a walk).
+bool vsPlaneCrossed(vec3 o, vec3 invD, int axis, int coord, float t, int tieAxis) {
+  VS_PRECISE float tp = (float(coord) - o[axis]) * invD[axis];
+  return tp < t || (tp == t && axis > tieAxis);
+}
+
+// The coordinate along `axis` (d != 0 there) of the canonical walk's voxel at parameter t, given an estimate c
+// from the point o + d*t that lies in [lo, hi] and is off by at most one voxel. Precondition: the voxel's
+// coordinate lies in [lo, hi].
+int vsSettleCoord(vec3 o, vec3 d, vec3 invD, int axis, int c, int lo, int hi, float t, int tieAxis) {
+  if (d[axis] > 0.0f) {
+    if (c > lo && !vsPlaneCrossed(o, invD, axis, c, t, tieAxis)) return c - 1;
+    if (c < hi && vsPlaneCrossed(o, invD, axis, c + 1, t, tieAxis)) return c + 1;
+  } else {
+    if (c < hi && !vsPlaneCrossed(o, invD, axis, c + 1, t, tieAxis)) return c + 1;
+    if (c > lo && vsPlaneCrossed(o, invD, axis, c, t, tieAxis)) return c - 1;
+  }
+  return c;
+}
+
+// Whether floor(x), x = o + d*t along one axis, could disagree with the plane comparisons of vsPlaneCrossed: only
+// when x lies within a hair of an integer plane. The rounding errors of x and of a plane's t amount to less than
+// 2^-21 of `scale` = 1 + |o| + |d*t| in position; the band is 32 times that, so outside it floor(x) is the
+// canonical coordinate and the comparisons can be skipped.
+bool vsNearPlane(float x, float scale) {
+  return abs(x - floor(x + 0.5f)) <= scale * (1.0f / 65536.0f);
+}
+
 // Clips o + t*d, t in [tMin, tMax], to the object's voxel bounds and places the walk on its first voxel.
 // Returns false when the ray misses the bounds (or the object is empty).
 bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax, VS_INOUT(ObjectWalk) w) {
@@ -136,6 +174,9 @@ bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax,
   w.d = d;
   w.invD = invD;
   w.v = ivec3(clamp(floor(entry), vec3(vmin), vec3(vmax - ivec3(1))));
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] != 0.0f) w.v[a] = vsSettleCoord(o, d, invD, a, w.v[a], vmin[a], vmax[a] - 1, t0, -1);
+  }
   w.tEnter = t0;
   w.t1 = t1;
   w.stepsLeft = (vmax.x - vmin.x) + (vmax.y - vmin.y) + (vmax.z - vmin.z) + 3;
@@ -165,7 +206,7 @@ int vsObjectWalkStep(VS_INOUT(ObjectWalk) w) {
     if (w.d[a] != 0.0f) {
       int bound = w.d[a] > 0.0f ? cellMin[a] + size : cellMin[a];
       VS_PRECISE float ta = (float(bound) - w.o[a]) * w.invD[a];
-      if (ta < tExit) {
+      if (ta <= tExit) {  // ties go to the higher axis (canonical order)
         tExit = ta;
         exitAxis = a;
       }
@@ -183,7 +224,14 @@ int vsObjectWalkStep(VS_INOUT(ObjectWalk) w) {
       float lo = float(cellMin[a]);
       float hi = float(cellMin[a] + size - 1);
       int c = int(clamp(floor(p[a]), lo, hi));
-      next[a] = w.d[a] > 0.0f ? max(c, w.v[a]) : min(c, w.v[a]);
+      // The ray never moves back: the voxel lies between the current one and the cell's far face.
+      int from = w.d[a] > 0.0f ? w.v[a] : cellMin[a];
+      int to = w.d[a] > 0.0f ? cellMin[a] + size - 1 : w.v[a];
+      c = clamp(c, from, to);
+      if (vsNearPlane(p[a], 1.0f + abs(w.o[a]) + abs(w.d[a] * tExit))) {
+        c = vsSettleCoord(w.o, w.d, w.invD, a, c, from, to, tExit, exitAxis);
+      }
+      next[a] = c;
     }
   }
   if (next[exitAxis] < w.obj.voxelMin[exitAxis] || next[exitAxis] >= w.obj.voxelMax[exitAxis]) return VS_WALK_MISS;
