@@ -205,6 +205,8 @@ struct alignas(32) Lanes {
   int voxelMin[3][kLanes], voxelMax[3][kLanes];
   int dPositive[3][kLanes];  // all ones where d > 0
   int dNonZero[3][kLanes];   // all ones where d != 0
+  // vsNearPlane's band for the whole walk: 2^-16 (1 + |o| + |d| max|t|), never below the band of any step.
+  float nearBand[3][kLanes];
   int live[kLanes];          // all ones while the lane walks
   // Between the parts of a step (beginStepLanes, lookupLanes, advanceLanes): the voxel's cell log2, whether
   // it is solid, and which lanes walk this step.
@@ -276,6 +278,8 @@ void loadLane(Lanes& L, int i, const gpu::SceneArrays::ObjectWalk& w, const Lane
     L.voxelMax[a][i] = w.obj.voxelMax[a];
     L.dPositive[a][i] = w.d[a] > 0.0f ? -1 : 0;
     L.dNonZero[a][i] = w.d[a] != 0.0f ? -1 : 0;
+    float tLargest = std::max(std::abs(w.tEnter), std::abs(w.t1));
+    L.nearBand[a][i] = (1.0f + std::abs(w.o[a]) + std::abs(w.d[a]) * tLargest) * (1.0f / 65536.0f) * 1.001f;
     L.sectorOrigin[a][i] = 4 * w.obj.regionOrigin[a];
     L.brickOrigin[a][i] = 16 * w.obj.regionOrigin[a];
     L.brick[a][i] = gpu::VS_NO_CELL;
@@ -504,24 +508,21 @@ int advanceLanes(Lanes& L, int& hits) {
   __m256i settle[3];
   __m256i anySettle = zero;
   for (int a = 0; a < 3; ++a) {
-    __m256 dt = _mm256_mul_ps(_mm256_load_ps(L.d[a]), tExit);
-    __m256 p = _mm256_add_ps(_mm256_load_ps(L.o[a]), dt);
+    __m256 p = _mm256_add_ps(_mm256_load_ps(L.o[a]), _mm256_mul_ps(_mm256_load_ps(L.d[a]), tExit));
     __m256i isExit = _mm256_cmpeq_epi32(exitAxis, _mm256_set1_epi32(a));
     __m256i exitCoord = select(_mm256_sub_epi32(cellMin[a], one), _mm256_add_epi32(cellMin[a], size), dPositive[a]);
-    // clamp(floor(p), lo, hi) is min(max(x, lo), hi) with glm's operand order: maxps(lo, x), minps(hi, .).
-    __m256 lo = _mm256_cvtepi32_ps(cellMin[a]);
-    __m256 hi = _mm256_cvtepi32_ps(_mm256_sub_epi32(_mm256_add_epi32(cellMin[a], size), one));
-    __m256 f = _mm256_round_ps(p, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-    __m256i c = _mm256_cvttps_epi32(_mm256_min_ps(hi, _mm256_max_ps(lo, f)));
-    __m256i moved = select(_mm256_min_epi32(c, v[a]), _mm256_max_epi32(c, v[a]), dPositive[a]);
+    // clamp(floor(p), cell) and then never against the ray: floor(p) clamped to [v, cell max] (d > 0) or to
+    // [cell min, v] (d < 0). p lies within the object's bounds here, so the clamp may follow the conversion.
+    __m256i far = _mm256_sub_epi32(_mm256_add_epi32(cellMin[a], size), one);
+    __m256i f = _mm256_cvttps_epi32(_mm256_round_ps(p, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC));
+    __m256i moved = _mm256_min_epi32(_mm256_max_epi32(f, select(cellMin[a], v[a], dPositive[a])),
+                                     select(v[a], far, dPositive[a]));
     // vsNearPlane: lanes whose coordinate needs vsSettleCoord (the test may differ from the reference's in
     // rounding; either way the settled coordinate is the canonical one).
     const __m256 absMask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
     __m256 dist = _mm256_and_ps(absMask, _mm256_sub_ps(p, _mm256_round_ps(p, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC)));
-    __m256 scale = _mm256_add_ps(bcast(1.0f), _mm256_add_ps(_mm256_and_ps(absMask, _mm256_load_ps(L.o[a])),
-                                                            _mm256_and_ps(absMask, dt)));
-    settle[a] = _mm256_andnot_si256(isExit, _mm256_and_si256(dNonZero[a], _mm256_castps_si256(_mm256_cmp_ps(
-                                                                              dist, _mm256_mul_ps(scale, bcast(1.0f / 65536.0f)), _CMP_LE_OQ))));
+    settle[a] = _mm256_andnot_si256(
+        isExit, _mm256_and_si256(dNonZero[a], _mm256_castps_si256(_mm256_cmp_ps(dist, _mm256_load_ps(L.nearBand[a]), _CMP_LE_OQ))));
     anySettle = _mm256_or_si256(anySettle, settle[a]);
     next[a] = select(select(v[a], moved, dNonZero[a]), exitCoord, isExit);
     __m256i outside = _mm256_or_si256(_mm256_cmpgt_epi32(load(L.voxelMin[a]), next[a]),
@@ -533,6 +534,7 @@ int advanceLanes(Lanes& L, int& hits) {
     // vsSettleCoord between the current voxel and the cell's far face, ties crossed above the exit axis.
     for (int a = 0; a < 3; ++a) {
       __m256i far = select(cellMin[a], _mm256_sub_epi32(_mm256_add_epi32(cellMin[a], size), one), dPositive[a]);
+      // The settled coordinate lies between the current voxel and the far face whatever the estimate.
       __m256i settled = settleLanes(next[a], v[a], far, dPositive[a], _mm256_load_ps(L.o[a]),
                                     _mm256_load_ps(L.invD[a]), tExit, _mm256_cmpgt_epi32(_mm256_set1_epi32(a), exitAxis));
       next[a] = select(next[a], settled, settle[a]);
@@ -583,10 +585,20 @@ __m256 boxEntryLanes(glm::vec3 bmin, glm::vec3 bmax, const __m256 o[3], const __
 }
 
 // Eight texel rays of one view through a single-instance scene, set up as vsViewRay, collectCandidates,
-// beginNextWalk and vsObjectWalkBegin do for each, lane by lane with the same operations. Rays with a walk
-// are written to rays[i] (RayState with its one candidate, and the begun walk); walks[i] says which.
+// beginNextWalk and vsObjectWalkBegin do for each, lane by lane with the same operations, into rays[i];
+// walks[i] says which rays begin a walk (the others miss).
+// A ray of a single-instance scene, set up and waiting for a lane: what loadSingleLane and the texel value need.
+struct SingleRay {
+  float o[3], d[3], tMax;          // the world ray (vsViewRay)
+  float lo[3], ld[3], invD[3];     // the brick-space ray and vsObjectWalkBegin's inverse direction
+  int v[3];                        // the walk's first voxel
+  float t0, t1;                    // its entry t and the end of its span
+  const gpu::TraceView* view;
+  float* texel;
+};
+
 void setupBatch(const gpu::SceneArrays& arrays, const SingleInstance& one, const gpu::TraceView& view, const int* xs,
-                const int* ys, tile::RayState* const* rays, bool* walks) {
+                const int* ys, SingleRay* rays, bool* walks) {
   alignas(32) float fx[kLanes], fy[kLanes];
   for (int i = 0; i < kLanes; ++i) fx[i] = float(xs[i]), fy[i] = float(ys[i]);
   __m256 nx = _mm256_sub_ps(
@@ -686,7 +698,7 @@ void setupBatch(const gpu::SceneArrays& arrays, const SingleInstance& one, const
   }
 
   alignas(32) float so[3][kLanes], sd[3][kLanes], slo[3][kLanes], sld[3][kLanes], sinv[3][kLanes], st0[kLanes],
-      st1[kLanes], sentry[kLanes], stMax[kLanes];
+      st1[kLanes], stMax[kLanes];
   alignas(32) int sv[3][kLanes];
   for (int a = 0; a < 3; ++a) {
     _mm256_store_ps(so[a], o[a]);
@@ -698,35 +710,22 @@ void setupBatch(const gpu::SceneArrays& arrays, const SingleInstance& one, const
   }
   _mm256_store_ps(st0, t0);
   _mm256_store_ps(st1, t1);
-  _mm256_store_ps(sentry, entry);
   _mm256_store_ps(stMax, tMax);
-  int candidateMask = _mm256_movemask_ps(candidate);
   int walkMask = emptyObject ? 0 : _mm256_movemask_ps(walk);
-  const int stepsLeft = (vmax.x - vmin.x) + (vmax.y - vmin.y) + (vmax.z - vmin.z) + 3;
   for (int i = 0; i < kLanes; ++i) {
-    tile::RayState& r = *rays[i];
-    r.o = glm::vec3(so[0][i], so[1][i], so[2][i]);
-    r.d = glm::vec3(sd[0][i], sd[1][i], sd[2][i]);
+    SingleRay& r = rays[i];
+    for (int a = 0; a < 3; ++a) {
+      r.o[a] = so[a][i];
+      r.d[a] = sd[a][i];
+      r.lo[a] = slo[a][i];
+      r.ld[a] = sld[a][i];
+      r.invD[a] = sinv[a][i];
+      r.v[a] = sv[a][i];
+    }
     r.tMax = stMax[i];
-    r.tBest = r.tMax;
-    r.hit = false;
-    r.instanceHit = 0u;
-    r.voxel = glm::ivec3(0);
-    r.candidateCount = (candidateMask >> i) & 1;
-    r.candidates[0] = {sentry[i], one.instance};
-    r.nextCandidate = r.candidateCount;
+    r.t0 = st0[i];
+    r.t1 = st1[i];
     walks[i] = ((walkMask >> i) & 1) != 0;
-    if (!walks[i]) continue;
-    r.walkingInstance = one.instance;
-    gpu::SceneArrays::ObjectWalk& wk = r.walk;
-    wk.obj = obj;
-    wk.o = glm::vec3(slo[0][i], slo[1][i], slo[2][i]);
-    wk.d = glm::vec3(sld[0][i], sld[1][i], sld[2][i]);
-    wk.invD = glm::vec3(sinv[0][i], sinv[1][i], sinv[2][i]);
-    wk.v = glm::ivec3(sv[0][i], sv[1][i], sv[2][i]);
-    wk.tEnter = st0[i];
-    wk.t1 = st1[i];
-    wk.stepsLeft = stepsLeft;
   }
 }
 
@@ -776,6 +775,116 @@ struct TexelStream {
   }
 };
 
+// Places a walk set up by setupBatch in lane i. The object's fields of the lanes were set once
+// (initSingleLanes): every lane walks the same object.
+void loadSingleLane(Lanes& L, int i, const SingleRay& r, int stepsLeft) {
+  for (int a = 0; a < 3; ++a) {
+    L.o[a][i] = r.lo[a];
+    L.d[a][i] = r.ld[a];
+    L.invD[a][i] = r.invD[a];
+    L.v[a][i] = r.v[a];
+    L.dPositive[a][i] = r.ld[a] > 0.0f ? -1 : 0;
+    L.dNonZero[a][i] = r.ld[a] != 0.0f ? -1 : 0;
+    float tLargest = std::max(std::abs(r.t0), std::abs(r.t1));
+    L.nearBand[a][i] = (1.0f + std::abs(r.lo[a]) + std::abs(r.ld[a]) * tLargest) * (1.0f / 65536.0f) * 1.001f;
+    L.brick[a][i] = gpu::VS_NO_CELL;
+  }
+  L.tEnter[i] = r.t0;
+  L.t1[i] = r.t1;
+  L.stepsLeft[i] = stepsLeft;
+  L.live[i] = -1;
+}
+
+// The single-instance driver: rays are set up eight at a time straight into compact records, lanes take them
+// as they free up, and a finished lane writes its texel at once (one object, one candidate: nothing else to
+// walk, so no per-ray candidate state).
+void traceTilesSingle(gpu::SceneArrays& arrays, const LaneTables& tables, const SingleInstance& one,
+                      std::span<const gpu::TraceView> views, std::span<const TexelTile> tiles,
+                      std::vector<ShadowLayer>& layers) {
+  constexpr int kGroups = 4;
+  constexpr int kReady = 64;
+  std::unique_ptr<Lanes[]> groups(new Lanes[kGroups]);
+  SingleRay laneRay[kGroups][kLanes];
+  SingleRay ready[kReady];
+  int readyHead = 0, readyCount = 0;
+  TexelStream stream{tiles};
+  const gpu::ObjectRecord& obj = arrays.objects[one.objectIndex];
+  const int stepsLeft = (obj.voxelMax.x - obj.voxelMin.x) + (obj.voxelMax.y - obj.voxelMin.y) +
+                        (obj.voxelMax.z - obj.voxelMin.z) + 3;
+  {
+    // Every lane's object fields, once (loadLane's per-object part).
+    gpu::SceneArrays::ObjectWalk w{};
+    w.obj = obj;
+    for (int k = 0; k < kGroups; ++k)
+      for (int i = 0; i < kLanes; ++i) {
+        loadLane(groups[k], i, w, tables, one.objectIndex);
+        groups[k].live[i] = 0;
+      }
+  }
+  auto writeTexel = [&](const SingleRay& r, bool hit, float tHit, glm::ivec3 voxel) {
+    *r.texel = arrays.vsTexelValue(*r.view, glm::vec3(r.o[0], r.o[1], r.o[2]), glm::vec3(r.d[0], r.d[1], r.d[2]),
+                                   r.tMax, hit, tHit, one.instance, voxel);
+  };
+  // Sets up rays until `ready` holds a batch's worth (rays without a walk are written as misses on the way).
+  auto prepare = [&] {
+    readyHead = readyCount = 0;
+    int view = 0;
+    while (readyCount <= kReady - kLanes && stream.peek(view)) {
+      int xs[kLanes], ys[kLanes], n = 0, nextView = 0;
+      while (n < kLanes && stream.peek(nextView) && nextView == view && stream.next(nextView, xs[n], ys[n])) ++n;
+      for (int i = n; i < kLanes; ++i) xs[i] = xs[0], ys[i] = ys[0];
+      SingleRay* batch = ready + readyCount;
+      bool walks[kLanes];
+      setupBatch(arrays, one, views[std::size_t(view)], xs, ys, batch, walks);
+      ShadowLayer& layer = layers[std::size_t(view)];
+      int kept = 0;
+      for (int i = 0; i < n; ++i) {
+        SingleRay& r = batch[i];
+        r.view = &views[std::size_t(view)];
+        r.texel = &layer.texels[std::size_t(ys[i]) * layer.width + xs[i]];
+        if (!walks[i]) {
+          writeTexel(r, false, r.tMax, glm::ivec3(0));
+          continue;
+        }
+        if (kept != i) batch[kept] = r;
+        ++kept;
+      }
+      readyCount += kept;
+    }
+  };
+  auto refill = [&](int k, int i) {
+    groups[k].live[i] = 0;
+    if (readyHead == readyCount) prepare();
+    if (readyHead == readyCount) return;
+    laneRay[k][i] = ready[readyHead++];
+    loadSingleLane(groups[k], i, laneRay[k][i], stepsLeft);
+  };
+
+  int liveCount = 0;
+  for (int k = 0; k < kGroups; ++k)
+    for (int i = 0; i < kLanes; ++i) {
+      refill(k, i);
+      liveCount += groups[k].live[i] != 0;
+    }
+  while (liveCount > 0) {
+    for (int k = 0; k < kGroups; ++k) beginStepLanes(tables, groups[k]);
+    for (int k = 0; k < kGroups; ++k) lookupLanes(arrays, tables, groups[k]);
+    for (int k = 0; k < kGroups; ++k) {
+      Lanes& L = groups[k];
+      int hits = 0;
+      int done = advanceLanes(L, hits);
+      for (; done != 0; done &= done - 1) {
+        int i = __builtin_ctz(unsigned(done));
+        bool hit = (hits >> i) & 1;
+        writeTexel(laneRay[k][i], hit, hit ? L.tEnter[i] : laneRay[k][i].tMax,
+                   glm::ivec3(L.v[0][i], L.v[1][i], L.v[2][i]));
+        refill(k, i);
+        if (L.live[i] == 0) --liveCount;
+      }
+    }
+  }
+}
+
 }  // namespace
 
 void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::span<const gpu::TraceView> views,
@@ -792,6 +901,11 @@ void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::sp
     const gpu::TraceView* view = nullptr;
     float* texel = nullptr;
   };
+  const SingleInstance one = singleInstance(arrays);
+  if (one.enabled) {
+    traceTilesSingle(arrays, tables, one, views, tiles, layers);
+    return;
+  }
   std::unique_ptr<Ray[]> pool(new Ray[kPool]);
   std::unique_ptr<Lanes[]> groups(new Lanes[kGroups]);
   int laneRay[kGroups][kLanes] = {};
@@ -809,40 +923,9 @@ void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::sp
     freeSlots[freeCount++] = slot;
   };
   // Sets up the next batch of rays that need a walk (texels that need none are finished on the way).
-  const SingleInstance one = singleInstance(arrays);
   auto prepare = [&] {
     readyHead = readyCount = 0;
     int view = 0, x = 0, y = 0;
-    // Single-instance scenes: eight texels of one view set up at once.
-    while (one.enabled && readyCount <= kBatch - kLanes && stream.peek(view)) {
-      int xs[kLanes], ys[kLanes], slots[kLanes], n = 0, nextView = 0;
-      while (n < kLanes && stream.peek(nextView) && nextView == view && stream.next(nextView, xs[n], ys[n])) ++n;
-      tile::RayState* states[kLanes];
-      tile::RayState spare;
-      for (int i = 0; i < kLanes; ++i) {
-        if (i < n) {
-          slots[i] = freeSlots[--freeCount];
-          states[i] = &pool[slots[i]].state;
-        } else {
-          xs[i] = xs[0], ys[i] = ys[0];
-          states[i] = &spare;
-        }
-      }
-      bool walks[kLanes];
-      setupBatch(arrays, one, views[std::size_t(view)], xs, ys, states, walks);
-      ShadowLayer& layer = layers[std::size_t(view)];
-      for (int i = 0; i < n; ++i) {
-        Ray& ray = pool[slots[i]];
-        ray.view = &views[std::size_t(view)];
-        ray.texel = &layer.texels[std::size_t(ys[i]) * layer.width + xs[i]];
-        if (walks[i]) {
-          ready[readyCount++] = slots[i];
-        } else {
-          finish(slots[i]);
-        }
-      }
-    }
-    if (one.enabled) return;
     while (readyCount < kBatch && stream.next(view, x, y)) {
       int slot = freeSlots[--freeCount];
       Ray& ray = pool[slot];
