@@ -3,6 +3,7 @@
 // rectangles, and rays aimed along voxel faces, edges and corners.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -229,8 +230,9 @@ TEST(TraceCpuCanonicalOrder, HierarchicalWalkEqualsVoxelWalk) {
   }
 }
 
-// Every empty brick's box (encodeEmptyRadii) holds no solid voxel, and a cube of bricks one larger would.
-TEST(TraceCpuFast, EmptyBrickBoxesAreEmptyAndMaximal) {
+// Every empty brick's box (encodeEmptyBoxes) holds no solid voxel, and each of its faces below the extent cap
+// is blocked: the slab of bricks beyond it holds one.
+TEST(TraceCpuFast, EmptyBrickBoxesAreEmptyAndBlocked) {
   auto scene = test::floorScene();
   LaneTables tables;
   ASSERT_TRUE(buildLaneTables(scene.data, tables));
@@ -250,14 +252,16 @@ TEST(TraceCpuFast, EmptyBrickBoxesAreEmptyAndMaximal) {
     for (int y = 0; y < dims.y; ++y)
       for (int x = 0; x < dims.x; ++x)
         solid[(std::size_t(z) * dims.y + y) * dims.x + x] = brickSolid(origin + glm::ivec3(x, y, z));
-  auto anySolidWithin = [&](glm::ivec3 c, int r) {
-    for (int z = std::max(0, c.z - r); z <= std::min(dims.z - 1, c.z + r); ++z)
-      for (int y = std::max(0, c.y - r); y <= std::min(dims.y - 1, c.y + r); ++y)
-        for (int x = std::max(0, c.x - r); x <= std::min(dims.x - 1, c.x + r); ++x)
+  auto anySolid = [&](glm::ivec3 lo, glm::ivec3 hi) {  // inclusive brick box, clipped to the grid
+    lo = glm::max(lo, glm::ivec3(0));
+    hi = glm::min(hi, dims - 1);
+    for (int z = lo.z; z <= hi.z; ++z)
+      for (int y = lo.y; y <= hi.y; ++y)
+        for (int x = lo.x; x <= hi.x; ++x)
           if (solid[(std::size_t(z) * dims.y + y) * dims.x + x]) return true;
     return false;
   };
-  std::size_t boxes = 0, larger = 0;
+  std::size_t boxes = 0, aligned = 0, elongated = 0;
   for (int z = 0; z < dims.z; ++z)
     for (int y = 0; y < dims.y; ++y)
       for (int x = 0; x < dims.x; ++x) {
@@ -265,24 +269,34 @@ TEST(TraceCpuFast, EmptyBrickBoxesAreEmptyAndMaximal) {
         bool isSolid = solid[(std::size_t(z) * dims.y + y) * dims.x + x];
         ASSERT_EQ(isSolid, code >= 0 || code == kLaneFullBrick) << x << "," << y << "," << z;
         if (isSolid) continue;
-        int radius = (-1 - code) & 255, log2 = (-1 - code) >> 8;
+        int box = -1 - code, log2 = box >> 24;
+        glm::ivec3 b(x, y, z);
         if (log2 != gpu::VS_BRICK_LOG2) {
-          // An aligned empty sector or region: no solid brick inside it.
+          ASSERT_EQ(box & 0xffffff, 0);
           int n = 1 << (log2 - gpu::VS_BRICK_LOG2);
-          glm::ivec3 lo = ((origin + glm::ivec3(x, y, z)) >> (log2 - gpu::VS_BRICK_LOG2)) * n - origin;
-          for (int k = 0; k < n * n * n; ++k) {
-            glm::ivec3 b = lo + glm::ivec3(k % n, (k / n) % n, k / (n * n));
-            ASSERT_FALSE(solid[(std::size_t(b.z) * dims.y + b.y) * dims.x + b.x]);
-          }
-          ++larger;
+          glm::ivec3 lo = ((origin + b) >> (log2 - gpu::VS_BRICK_LOG2)) * n - origin;
+          ASSERT_FALSE(anySolid(lo, lo + n - 1)) << x << "," << y << "," << z;
+          ++aligned;
           continue;
         }
+        int ext[6];
+        for (int f = 0; f < 6; ++f) ext[f] = (box >> (4 * f)) & 15;
+        glm::ivec3 lo = b - glm::ivec3(ext[0], ext[2], ext[4]), hi = b + glm::ivec3(ext[1], ext[3], ext[5]);
+        ASSERT_FALSE(anySolid(lo, hi)) << x << "," << y << "," << z;
+        for (int f = 0; f < 6; ++f) {
+          if (ext[f] == kLaneMaxBoxExtent) continue;
+          glm::ivec3 slo = lo, shi = hi;
+          int a = f / 2;
+          if (f % 2 == 0) slo[a] = shi[a] = lo[a] - 1;
+          else slo[a] = shi[a] = hi[a] + 1;
+          ASSERT_TRUE(anySolid(slo, shi)) << x << "," << y << "," << z << " face " << f;
+        }
         ++boxes;
-        ASSERT_FALSE(anySolidWithin({x, y, z}, radius)) << x << "," << y << "," << z << " radius " << radius;
-        if (radius < kLaneMaxEmptyRadius) ASSERT_TRUE(anySolidWithin({x, y, z}, radius + 1)) << x << "," << y << "," << z;
+        elongated += *std::max_element(ext, ext + 6) != *std::min_element(ext, ext + 6);
       }
   EXPECT_GT(boxes, 100u);
-  EXPECT_GT(larger, 0u);
+  EXPECT_GT(elongated, 100u);
+  std::printf("%zu grown boxes (%zu not cubes), %zu empty sectors or regions kept\n", boxes, elongated, aligned);
 }
 
 // A CpuTracer keeps its tables between traces and rebuilds them after voxelsChanged(): every trace equals the

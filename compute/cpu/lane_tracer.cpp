@@ -26,23 +26,44 @@ bool laneTracerSupported(const SceneData& scene) {
 namespace {
 
 // Replaces the code of every empty brick of one object's brick grid (nx * ny * nz codes, x fastest) by
-// -1 - (r | log2 << 8): the empty box around it is the cube of (2r+1)^3 aligned cells of 2^log2 voxels centred
-// on its cell. Either the cube of bricks (log2 3) whose radius r is the chessboard distance to the nearest
-// non-empty brick less one (bricks outside the grid hold none; capped at kLaneMaxEmptyRadius), or, when that
-// is smaller, the brick's empty sector or region (r = 0). Two raster passes over the 26-neighbourhood give the
-// exact chessboard distance.
-void encodeEmptyRadii(std::int32_t* codes, int nx, int ny, int nz) {
-  constexpr int kFar = kLaneMaxEmptyRadius + 1;
+// -1 - box, box = the six extents (4 bits each: -x, +x, -y, +y, -z, +z, in cells of 2^log2 voxels, from bit 0)
+// | log2 << 24: the empty box around the brick spans, per axis, from its cell less the - extent to its cell
+// plus the + extent. Bricks outside the grid hold no voxel, so a box may reach past the grid.
+// The box grows from the largest empty cube of bricks centred on the brick (the chessboard distance to the
+// nearest non-empty brick, less one, by two raster passes over the 26-neighbourhood), face by face in turn,
+// each face by one brick while the slab it adds is empty (a summed-area table answers that), up to
+// kLaneMaxBoxExtent per side: streets and courtyards become long boxes instead of small cubes. The brick's
+// empty sector or region (extents 0, log2 5 or 7) is kept when it holds more voxels.
+void encodeEmptyBoxes(std::int32_t* codes, int nx, int ny, int nz) {
+  constexpr int kFar = kLaneMaxBoxExtent + 1;
   const int px = nx + 2, py = ny + 2, pz = nz + 2;
   const std::size_t plane = std::size_t(px) * py;
   std::vector<std::uint8_t> dist(plane * pz, std::uint8_t(kFar));
   auto at = [&](int x, int y, int z) { return (std::size_t(z) * py + y) * px + x; };
+  auto codeAt = [&](int x, int y, int z) -> std::int32_t& { return codes[(std::size_t(z) * ny + y) * nx + x]; };
+  auto solid = [](std::int32_t code) { return code >= 0 || code == kLaneFullBrick; };
+  // Summed-area table of non-empty bricks: sat(x, y, z) counts those with coordinates below (x, y, z).
+  const std::size_t sx = std::size_t(nx) + 1, sy = std::size_t(ny) + 1;
+  std::vector<std::int32_t> sat(sx * sy * (std::size_t(nz) + 1), 0);
+  auto satAt = [&](int x, int y, int z) -> std::int32_t& { return sat[(std::size_t(z) * sy + y) * sx + x]; };
   for (int z = 0; z < nz; ++z)
     for (int y = 0; y < ny; ++y)
       for (int x = 0; x < nx; ++x) {
-        std::int32_t code = codes[(std::size_t(z) * ny + y) * nx + x];
-        if (code >= 0 || code == kLaneFullBrick) dist[at(x + 1, y + 1, z + 1)] = 0;
+        int here = solid(codeAt(x, y, z)) ? 1 : 0;
+        if (here) dist[at(x + 1, y + 1, z + 1)] = 0;
+        satAt(x + 1, y + 1, z + 1) = here + satAt(x, y + 1, z + 1) + satAt(x + 1, y, z + 1) + satAt(x + 1, y + 1, z) -
+                                     satAt(x, y, z + 1) - satAt(x, y + 1, z) - satAt(x + 1, y, z) + satAt(x, y, z);
       }
+  // Whether the brick box [lo, hi] (inclusive, may reach past the grid) holds no non-empty brick.
+  auto boxEmpty = [&](glm::ivec3 lo, glm::ivec3 hi) {
+    lo = glm::max(lo, glm::ivec3(0));
+    hi = glm::min(hi, glm::ivec3(nx, ny, nz) - 1);
+    if (lo.x > hi.x || lo.y > hi.y || lo.z > hi.z) return true;
+    const int x0 = lo.x, y0 = lo.y, z0 = lo.z, x1 = hi.x + 1, y1 = hi.y + 1, z1 = hi.z + 1;
+    return satAt(x1, y1, z1) - satAt(x0, y1, z1) - satAt(x1, y0, z1) - satAt(x1, y1, z0) + satAt(x0, y0, z1) +
+               satAt(x0, y1, z0) + satAt(x1, y0, z0) - satAt(x0, y0, z0) ==
+           0;
+  };
   // The 13 neighbours that come before a cell in raster order (the other 13 are their mirror images).
   std::ptrdiff_t before[13];
   int n = 0;
@@ -66,16 +87,43 @@ void encodeEmptyRadii(std::int32_t* codes, int nx, int ny, int nz) {
   for (int z = 0; z < nz; ++z)
     for (int y = 0; y < ny; ++y)
       for (int x = 0; x < nx; ++x) {
-        std::int32_t& code = codes[(std::size_t(z) * ny + y) * nx + x];
-        if (code >= 0 || code == kLaneFullBrick) continue;
-        // The empty sector or region around the brick (code = its log2 negated) may be the larger box.
-        int log2 = -code, radius = int(dist[at(x + 1, y + 1, z + 1)]) - 1;
-        if (((2 * radius + 1) << gpu::VS_BRICK_LOG2) < (1 << log2)) {
-          radius = 0;
-        } else {
-          log2 = gpu::VS_BRICK_LOG2;
+        std::int32_t& code = codeAt(x, y, z);
+        if (solid(code)) continue;
+        const glm::ivec3 b(x, y, z);
+        int r = std::min(int(dist[at(x + 1, y + 1, z + 1)]) - 1, kLaneMaxBoxExtent);
+        int ext[6] = {r, r, r, r, r, r};  // -x, +x, -y, +y, -z, +z
+        for (bool grew = true; grew;) {
+          grew = false;
+          for (int f = 0; f < 6; ++f) {
+            if (ext[f] == kLaneMaxBoxExtent) continue;
+            glm::ivec3 lo = b - glm::ivec3(ext[0], ext[2], ext[4]), hi = b + glm::ivec3(ext[1], ext[3], ext[5]);
+            int axis = f / 2;
+            // The slab one brick beyond face f.
+            if (f % 2 == 0) {
+              hi[axis] = lo[axis] - 1;
+              lo[axis] = hi[axis];
+            } else {
+              lo[axis] = hi[axis] + 1;
+              hi[axis] = lo[axis];
+            }
+            if (boxEmpty(lo, hi)) {
+              ++ext[f];
+              grew = true;
+            }
+          }
         }
-        code = -1 - (radius | (log2 << 8));
+        // The empty sector or region around the brick (code = its log2 negated) may be the larger box.
+        int log2 = -code;
+        double bricks = double(ext[0] + ext[1] + 1) * (ext[2] + ext[3] + 1) * (ext[4] + ext[5] + 1);
+        double aligned = std::pow(double(1 << (log2 - gpu::VS_BRICK_LOG2)), 3.0);
+        std::int32_t box = 0;
+        if (aligned > bricks) {
+          box = log2 << 24;
+        } else {
+          for (int f = 0; f < 6; ++f) box |= ext[f] << (4 * f);
+          box |= gpu::VS_BRICK_LOG2 << 24;
+        }
+        code = -1 - box;
       }
 }
 
@@ -132,7 +180,7 @@ void buildBrickCodes(const SceneData& scene, LaneTables& tables, std::size_t max
             tables.brickCodes[index] = value;
           }
         }
-    encodeEmptyRadii(tables.brickCodes.data() + base, bdx, bdy, 4 * sdz);
+    encodeEmptyBoxes(tables.brickCodes.data() + base, bdx, bdy, 4 * sdz);
   }
 }
 
@@ -211,9 +259,9 @@ struct alignas(32) Lanes {
   // Between the parts of a step (beginStepLanes, lookupLanes, advanceLanes): the voxel's cell log2, whether
   // it is solid, and which lanes walk this step.
   int stepLog2[kLanes], stepHit[kLanes], stepWalking[kLanes];
-  // The empty box of the step: the cube of (2 * stepRadius + 1)^3 aligned cells of 2^stepLog2 voxels centred on
-  // the voxel's cell (radius 0: the aligned cell itself).
-  int stepRadius[kLanes];
+  // The empty box of the step in cells of 2^stepLog2 voxels around the voxel's cell: six 4-bit extents
+  // (encodeEmptyBoxes; 0: the aligned cell itself).
+  int stepBox[kLanes];
   int stepCode[kLanes];  // the voxel's brick code (LaneTables::brickCodes), read before lookupLanes
   // The object's sector-code table: first code, sector coordinate of code 0, codes per row and per layer.
   int sectorBase[kLanes];
@@ -353,7 +401,7 @@ void lookupLanes(const gpu::SceneArrays& arrays, const LaneTables& tables, Lanes
   // vsWalkCellLog2 up to the brick: whether the voxel's brick is present, else the empty cell's log2; the
   // brick's cell mask, fullness and first occupancy word.
   __m256i brickPresent, emptyLog2, fullBrick, occupancyBase, brickCode;
-  __m256i emptyRadius = zero;
+  __m256i emptyBox = zero;
   __m256i cellLo = zero, cellHi = zero;  // read on the sector level only
   const bool brickLevel = !tables.brickCodes.empty();
   if (brickLevel) {
@@ -361,9 +409,9 @@ void lookupLanes(const gpu::SceneArrays& arrays, const LaneTables& tables, Lanes
     fullBrick = _mm256_and_si256(walking, _mm256_cmpeq_epi32(brickCode, _mm256_set1_epi32(kLaneFullBrick)));
     brickPresent =
         _mm256_or_si256(fullBrick, _mm256_and_si256(walking, _mm256_cmpgt_epi32(brickCode, _mm256_set1_epi32(-1))));
-    __m256i box = _mm256_sub_epi32(_mm256_set1_epi32(-1), brickCode);  // r | log2 << 8 (encodeEmptyRadii)
-    emptyLog2 = _mm256_srai_epi32(box, 8);
-    emptyRadius = _mm256_and_si256(box, _mm256_set1_epi32(255));
+    __m256i box = _mm256_sub_epi32(_mm256_set1_epi32(-1), brickCode);  // extents | log2 << 24 (encodeEmptyBoxes)
+    emptyLog2 = _mm256_srai_epi32(box, 24);
+    emptyBox = _mm256_and_si256(box, _mm256_set1_epi32(0xffffff));
     occupancyBase = brickCode;
   } else {
     // The sector's code (region empty, sector empty, or its index) from the dense table, then the brick from
@@ -436,7 +484,7 @@ void lookupLanes(const gpu::SceneArrays& arrays, const LaneTables& tables, Lanes
   __m256i log2Size = select(emptyLog2, _mm256_set1_epi32(gpu::VS_CELL_LOG2), brickPresent);
   log2Size = select(log2Size, zero, cellPresent);
   store(L.stepLog2, log2Size);
-  store(L.stepRadius, _mm256_andnot_si256(brickPresent, emptyRadius));
+  store(L.stepBox, _mm256_andnot_si256(brickPresent, emptyBox));
   store(L.stepHit, hit);
 }
 
@@ -482,16 +530,20 @@ int advanceLanes(Lanes& L, int& hits) {
   // The exit of the empty box: the smallest exact t over the axes, the highest axis on ties. The reference
   // walks aligned cells only; a larger empty box around the voxel leads to the same voxels (the canonical
   // order of traverse.h), with fewer steps.
-  const __m256i radius = load(L.stepRadius);
-  __m256i size = _mm256_sllv_epi32(_mm256_add_epi32(_mm256_add_epi32(radius, radius), one), log2Size);
-  __m256i cellMin[3], dPositive[3], dNonZero[3];
+  const __m256i box = load(L.stepBox);
+  const __m256i fifteen = _mm256_set1_epi32(15);
+  __m256i cellMin[3], cellEnd[3], dPositive[3], dNonZero[3];
   __m256 tExit = _mm256_set1_ps(gpu::VS_T_INFINITY);
   __m256i exitAxis = _mm256_set1_epi32(-1);
   for (int a = 0; a < 3; ++a) {
-    cellMin[a] = _mm256_sllv_epi32(_mm256_sub_epi32(_mm256_srav_epi32(v[a], log2Size), radius), log2Size);
+    __m256i cell = _mm256_srav_epi32(v[a], log2Size);
+    __m256i below = _mm256_and_si256(_mm256_srli_epi32(box, 8 * a), fifteen);
+    __m256i above = _mm256_and_si256(_mm256_srli_epi32(box, 8 * a + 4), fifteen);
+    cellMin[a] = _mm256_sllv_epi32(_mm256_sub_epi32(cell, below), log2Size);
+    cellEnd[a] = _mm256_sllv_epi32(_mm256_add_epi32(_mm256_add_epi32(cell, above), one), log2Size);
     dPositive[a] = load(L.dPositive[a]);
     dNonZero[a] = load(L.dNonZero[a]);
-    __m256i bound = select(cellMin[a], _mm256_add_epi32(cellMin[a], size), dPositive[a]);
+    __m256i bound = select(cellMin[a], cellEnd[a], dPositive[a]);
     __m256 ta =
         _mm256_mul_ps(_mm256_sub_ps(_mm256_cvtepi32_ps(bound), _mm256_load_ps(L.o[a])), _mm256_load_ps(L.invD[a]));
     __m256i closer = _mm256_and_si256(dNonZero[a], _mm256_castps_si256(_mm256_cmp_ps(ta, tExit, _CMP_LE_OQ)));
@@ -510,10 +562,10 @@ int advanceLanes(Lanes& L, int& hits) {
   for (int a = 0; a < 3; ++a) {
     __m256 p = _mm256_add_ps(_mm256_load_ps(L.o[a]), _mm256_mul_ps(_mm256_load_ps(L.d[a]), tExit));
     __m256i isExit = _mm256_cmpeq_epi32(exitAxis, _mm256_set1_epi32(a));
-    __m256i exitCoord = select(_mm256_sub_epi32(cellMin[a], one), _mm256_add_epi32(cellMin[a], size), dPositive[a]);
+    __m256i exitCoord = select(_mm256_sub_epi32(cellMin[a], one), cellEnd[a], dPositive[a]);
     // clamp(floor(p), cell) and then never against the ray: floor(p) clamped to [v, cell max] (d > 0) or to
     // [cell min, v] (d < 0). p lies within the object's bounds here, so the clamp may follow the conversion.
-    __m256i far = _mm256_sub_epi32(_mm256_add_epi32(cellMin[a], size), one);
+    __m256i far = _mm256_sub_epi32(cellEnd[a], one);
     __m256i f = _mm256_cvttps_epi32(_mm256_round_ps(p, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC));
     __m256i moved = _mm256_min_epi32(_mm256_max_epi32(f, select(cellMin[a], v[a], dPositive[a])),
                                      select(v[a], far, dPositive[a]));
@@ -533,7 +585,7 @@ int advanceLanes(Lanes& L, int& hits) {
   if (!_mm256_testz_si256(anySettle, anySettle)) {
     // vsSettleCoord between the current voxel and the cell's far face, ties crossed above the exit axis.
     for (int a = 0; a < 3; ++a) {
-      __m256i far = select(cellMin[a], _mm256_sub_epi32(_mm256_add_epi32(cellMin[a], size), one), dPositive[a]);
+      __m256i far = select(cellMin[a], _mm256_sub_epi32(cellEnd[a], one), dPositive[a]);
       // The settled coordinate lies between the current voxel and the far face whatever the estimate.
       __m256i settled = settleLanes(next[a], v[a], far, dPositive[a], _mm256_load_ps(L.o[a]),
                                     _mm256_load_ps(L.invD[a]), tExit, _mm256_cmpgt_epi32(_mm256_set1_epi32(a), exitAxis));

@@ -35,7 +35,8 @@ bool laneTracerSupported(const SceneData& scene);
 // else the sector's global index; objectBase[i] is object i's first code, laid out like its region table with
 // 4^3 sectors per region slot (x fastest).
 // When every object's bricks fit kMaxLaneBrickCodes, brickCodes holds the same per brick coordinate (16^3 per
-// region slot): -1 - (r | log2 << 8) where the brick is empty (the empty box around it, see encodeEmptyRadii),
+// region slot): -1 - (extents | log2 << 24) where the brick is empty (the empty box around it, see
+// encodeEmptyBoxes in lane_tracer.cpp),
 // kLaneFullBrick where it is full, else the
 // global index of its first occupancy word. A step then reads one code and one occupancy word. The cell level
 // comes from the occupancy word too (a cell's mask bit is its occupancy byte != 0, brickmap_layout.h); the
@@ -52,10 +53,9 @@ struct LaneTables {
 constexpr std::size_t kMaxLaneSectorCodes = std::size_t(1) << 24;
 constexpr std::size_t kMaxLaneBrickCodes = std::size_t(1) << 22;
 constexpr std::int32_t kLaneFullBrick = std::numeric_limits<std::int32_t>::min();
-// Largest radius (in bricks) of the empty cube recorded for an empty brick: a step then crosses up to 2r+1
-// bricks at once. 31 bricks (248 voxels) covers the open sky of any scene of DESIGN.md's sizes; more would
-// only save the last few steps of the longest rays.
-constexpr int kLaneMaxEmptyRadius = 31;
+// Largest extent (in bricks, per side) of the empty box recorded around an empty brick: a step crosses up to
+// 2 * 15 + 1 bricks (248 voxels) at once; the 4-bit fields of the code hold no more.
+constexpr int kLaneMaxBoxExtent = 15;
 bool buildLaneTables(const SceneData& scene, LaneTables& tables, std::size_t maxBrickCodes = kMaxLaneBrickCodes);
 
 // Traces every tile into layers[tile.view].texels (row stride layers[..].width).
