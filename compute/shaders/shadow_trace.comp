@@ -27,6 +27,8 @@ layout(std430, set = 0, binding = 7) readonly buffer NodeBuffer { BvhNode nodes[
 layout(std430, set = 0, binding = 8) readonly buffer InstanceIndexBuffer { uint instanceIndices[]; };
 layout(std430, set = 0, binding = 9) readonly buffer ViewBuffer { TraceView views[]; };
 layout(set = 0, binding = 10, r32f) uniform writeonly image2DArray shadowImage;
+// The box table (traverse.h, vsObjectWalkStepBoxes): one first-code index per object, then the codes.
+layout(std430, set = 0, binding = 11) readonly buffer BoxCodeBuffer { int boxCodes[]; };
 
 layout(push_constant) uniform TracePush {
   uint nodeCount;
@@ -43,6 +45,9 @@ layout(push_constant) uniform TracePush {
 // without splits drops the chunk selection at compile time: llvmpipe runs every branch of a divergent `if`
 // with lanes masked off, which made each read cost four loads.
 layout(constant_id = 0) const bool VS_SPLIT_BINDINGS = true;
+// True when the host uploaded a box table: the object walks read it instead of the brickmap hierarchy
+// (fewer, cheaper steps; same texels). A specialization constant, so each pipeline holds one walk only.
+layout(constant_id = 1) const bool VS_BOX_TABLE = false;
 
 // A chunk index differs between invocations, so each case indexes the block array with a constant:
 // no non-uniform descriptor indexing is needed.
@@ -68,6 +73,7 @@ uint vsReadOccupancy(uint i) { VS_CHUNK_READ(uint, occupancyChunks, occupancyShi
 #define VS_READ_SECTORS(i) vsReadSector(i)
 #define VS_READ_BRICKS(i) vsReadBrick(i)
 #define VS_READ_OCCUPANCY(i) vsReadOccupancy(i)
+#define VS_READ_BOX_CODE(i) boxCodes[i]
 
 #include "compute/shared/traverse.h"
 

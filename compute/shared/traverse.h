@@ -189,22 +189,15 @@ bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax,
   return true;
 }
 
-// Looks at the walk's current voxel: VS_WALK_HIT when it is solid (w.v, w.tEnter hold the hit), else moves
-// past the largest empty cell around it and returns VS_WALK_CONTINUE, or VS_WALK_MISS once the ray has left
-// the object or its span.
-int vsObjectWalkStep(VS_INOUT(ObjectWalk) w) {
-  if (w.stepsLeft <= 0) return VS_WALK_MISS;
-  w.stepsLeft -= 1;
-  int log2Size = vsWalkCellLog2(w);
-  if (log2Size < 0) return VS_WALK_HIT;
-  int size = 1 << log2Size;
-  ivec3 cellMin = w.v & ivec3(~(size - 1));
-
+// Moves the walk past the empty box [boxMin, boxEnd) (voxel coordinates, end exclusive) that holds its
+// voxel: returns VS_WALK_CONTINUE on the box's next voxel in canonical order, or VS_WALK_MISS once the ray has
+// left the object or its span. Any empty box around the voxel leads to the same voxels.
+int vsWalkLeaveBox(VS_INOUT(ObjectWalk) w, ivec3 boxMin, ivec3 boxEnd) {
   VS_PRECISE float tExit = VS_T_INFINITY;
   int exitAxis = -1;
   for (int a = 0; a < 3; ++a) {
     if (w.d[a] != 0.0f) {
-      int bound = w.d[a] > 0.0f ? cellMin[a] + size : cellMin[a];
+      int bound = w.d[a] > 0.0f ? boxEnd[a] : boxMin[a];
       VS_PRECISE float ta = (float(bound) - w.o[a]) * w.invD[a];
       if (ta <= tExit) {  // ties go to the higher axis (canonical order)
         tExit = ta;
@@ -219,14 +212,14 @@ int vsObjectWalkStep(VS_INOUT(ObjectWalk) w) {
   ivec3 next = w.v;
   for (int a = 0; a < 3; ++a) {
     if (a == exitAxis) {
-      next[a] = w.d[a] > 0.0f ? cellMin[a] + size : cellMin[a] - 1;
+      next[a] = w.d[a] > 0.0f ? boxEnd[a] : boxMin[a] - 1;
     } else if (w.d[a] != 0.0f) {
-      float lo = float(cellMin[a]);
-      float hi = float(cellMin[a] + size - 1);
+      float lo = float(boxMin[a]);
+      float hi = float(boxEnd[a] - 1);
       int c = int(clamp(floor(p[a]), lo, hi));
-      // The ray never moves back: the voxel lies between the current one and the cell's far face.
-      int from = w.d[a] > 0.0f ? w.v[a] : cellMin[a];
-      int to = w.d[a] > 0.0f ? cellMin[a] + size - 1 : w.v[a];
+      // The ray never moves back: the voxel lies between the current one and the box's far face.
+      int from = w.d[a] > 0.0f ? w.v[a] : boxMin[a];
+      int to = w.d[a] > 0.0f ? boxEnd[a] - 1 : w.v[a];
       c = clamp(c, from, to);
       if (vsNearPlane(p[a], 1.0f + abs(w.o[a]) + abs(w.d[a] * tExit))) {
         c = vsSettleCoord(w.o, w.d, w.invD, a, c, from, to, tExit, exitAxis);
@@ -240,6 +233,54 @@ int vsObjectWalkStep(VS_INOUT(ObjectWalk) w) {
   return VS_WALK_CONTINUE;
 }
 
+// Looks at the walk's current voxel: VS_WALK_HIT when it is solid (w.v, w.tEnter hold the hit), else moves
+// past the largest empty aligned cell around it and returns VS_WALK_CONTINUE, or VS_WALK_MISS once the ray
+// has left the object or its span.
+int vsObjectWalkStep(VS_INOUT(ObjectWalk) w) {
+  if (w.stepsLeft <= 0) return VS_WALK_MISS;
+  w.stepsLeft -= 1;
+  int log2Size = vsWalkCellLog2(w);
+  if (log2Size < 0) return VS_WALK_HIT;
+  int size = 1 << log2Size;
+  ivec3 cellMin = w.v & ivec3(~(size - 1));
+  return vsWalkLeaveBox(w, cellMin, cellMin + ivec3(size));
+}
+
+#ifdef VS_READ_BOX_CODE
+// The walk over a box table: per object, one code per brick (compute/cpu/lane_tracer.h, LaneTables::brickCodes,
+// laid out like the object's region table with 16^3 bricks per region): VS_BOX_FULL for a full brick, the
+// global index of its first occupancy word for a partial one (whose cells are empty exactly where their
+// occupancy byte is 0), else -1 - (six 4-bit extents | log2 << 24): the empty box around the brick. One read
+// per step instead of the chain from the region table down, and boxes far larger than aligned cells; the
+// canonical order makes the result that of vsObjectWalkStep bit for bit.
+const int VS_BOX_FULL = int(0x80000000u);
+
+int vsObjectWalkStepBoxes(VS_INOUT(ObjectWalk) w, int tableBase) {
+  if (w.stepsLeft <= 0) return VS_WALK_MISS;
+  w.stepsLeft -= 1;
+  ivec3 dims = ivec3(w.obj.regionDims) * 16;
+  ivec3 b = (w.v >> VS_BRICK_LOG2) - ivec3(w.obj.regionOrigin) * 16;
+  int code = VS_READ_BOX_CODE(tableBase + b.x + dims.x * (b.y + dims.y * b.z));
+  if (code == VS_BOX_FULL) return VS_WALK_HIT;
+  int log2 = 0;
+  int box = 0;
+  if (code >= 0) {
+    uint cellBit = vsChildBit(w.v, VS_CELL_LOG2);
+    uint voxelBit = cellBit * 8u + uint((w.v.x & 1) + 2 * (w.v.y & 1) + 4 * (w.v.z & 1));
+    uint word = VS_READ_OCCUPANCY(uint(code) + (voxelBit >> 5u));
+    if (((word >> (voxelBit & 31u)) & 1u) != 0u) return VS_WALK_HIT;
+    log2 = ((word >> ((cellBit & 3u) * 8u)) & 0xffu) == 0u ? VS_CELL_LOG2 : 0;
+  } else {
+    box = -1 - code;
+    log2 = box >> 24;
+  }
+  ivec3 cell = w.v >> log2;
+  ivec3 below = ivec3(box, box >> 8, box >> 16) & ivec3(15);
+  ivec3 above = ivec3(box >> 4, box >> 12, box >> 20) & ivec3(15);
+  return vsWalkLeaveBox(w, (cell - below) << log2, (cell + above + ivec3(1)) << log2);
+}
+#endif
+
 // Closest solid voxel of one object along o + t*d (brick space; t is the caller's parameter, kept through
 // the affine map), for t in [tMin, tMax]. On a hit returns true with tHit the entry t and voxel its coordinate.
 bool vsTraceObject(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax, VS_INOUT(float) tHit,
@@ -247,6 +288,12 @@ bool vsTraceObject(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax, VS_
   ObjectWalk w;
   if (!vsObjectWalkBegin(objectIndex, o, d, tMin, tMax, w)) return false;
   int status = VS_WALK_CONTINUE;
+#ifdef VS_READ_BOX_CODE
+  int tableBase = VS_READ_BOX_CODE(objectIndex);  // the table starts with each object's first code, or -1
+  if (VS_BOX_TABLE && tableBase >= 0) {
+    while (status == VS_WALK_CONTINUE) status = vsObjectWalkStepBoxes(w, tableBase);
+  } else
+#endif
   while (status == VS_WALK_CONTINUE) status = vsObjectWalkStep(w);
   if (status != VS_WALK_HIT) return false;
   tHit = w.tEnter;

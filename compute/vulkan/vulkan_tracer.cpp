@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstring>
 
+#include "compute/cpu/lane_tracer.h"
 #include "compute/vulkan/pipeline_cache.h"
 #include "shadow_trace.spv.h"
 #include "voxel/error.h"
@@ -16,7 +17,7 @@ namespace {
 
 constexpr std::uint32_t kSplitBindings = kSplitArrayCount;  // bindings 0..4
 constexpr std::uint32_t kObjectsBinding = 5, kInstancesBinding = 6, kNodesBinding = 7, kIndicesBinding = 8;
-constexpr std::uint32_t kViewsBinding = 9, kImageBinding = 10;
+constexpr std::uint32_t kViewsBinding = 9, kImageBinding = 10, kBoxCodesBinding = 11;
 constexpr const char* kSplitNames[kSplitArrayCount] = {"regionTable", "regions", "sectors", "bricks", "occupancy"};
 
 // Mirrors the shader's TracePush block.
@@ -53,7 +54,9 @@ struct VulkanTracer::Impl {
   std::unique_ptr<DiskPipelineCache> cache;
   vk::ComputePipeline pipeline;   // pipeline.pipeline: every array in one binding
   vk::UniqueShaderModule module;
-  vk::UniquePipeline splitPipeline;  // arrays over several bindings; created on first need
+  // The other variants (arrays over several bindings, walk with or without the box table), created on first
+  // need; index split * 2 + boxes. pipeline.pipeline is variant (false, options.boxTable).
+  std::array<vk::UniquePipeline, 4> variants;
   vk::UniqueDescriptorPool descriptorPool;
   VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
   vk::UniqueQueryPool queryPool;
@@ -62,6 +65,8 @@ struct VulkanTracer::Impl {
 
   std::array<DeviceArray, kSplitArrayCount> split;
   std::array<DeviceArray, 4> whole;  // objects, instances, nodes, instanceIndices
+  DeviceArray boxCodes;              // the box table; empty when the walk reads the hierarchy
+  bool boxTableUploaded = false;
   vk::Buffer placeholder;
   std::uint32_t nodeCount = 0;
   bool uploaded = false;
@@ -73,7 +78,7 @@ struct VulkanTracer::Impl {
   explicit Impl(const VulkanOptions& o)
       : options(o), context(VulkanContextOptions{o.deviceIndex, o.deviceName, o.validation}) {
     const VulkanDeviceInfo& info = context.info();
-    std::uint32_t needed = kSplitArrayCount * kMaxBuffersPerArray + 5;
+    std::uint32_t needed = kSplitArrayCount * kMaxBuffersPerArray + 6;
     if (info.maxPerStageStorageBuffers < needed)
       throwRuntime("Vulkan device " + info.name + " allows " + std::to_string(info.maxPerStageStorageBuffers) +
                    " storage buffers per shader stage (maxPerStageDescriptorStorageBuffers); the trace shader needs " +
@@ -98,7 +103,7 @@ struct VulkanTracer::Impl {
   void createPipeline() {
     VkDevice dev = context.device();
     std::vector<VkDescriptorSetLayoutBinding> bindings;
-    for (std::uint32_t b = 0; b <= kImageBinding; ++b) {
+    for (std::uint32_t b = 0; b <= kBoxCodesBinding; ++b) {
       VkDescriptorSetLayoutBinding lb{};
       lb.binding = b;
       lb.descriptorType = b == kImageBinding ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
@@ -127,7 +132,7 @@ struct VulkanTracer::Impl {
     cache = std::make_unique<DiskPipelineCache>(context, dir);
     module = context.createShaderModule(shadow_trace, sizeof(shadow_trace));
     auto t0 = std::chrono::steady_clock::now();
-    pipeline.pipeline = makePipeline(false);
+    pipeline.pipeline = makePipeline(false, options.boxTable);
     pipelineStats.createMs = msSince(t0);
     pipelineStats.warmCache = cache->warm();
     pipelineStats.cacheFile = cache->file();
@@ -135,7 +140,7 @@ struct VulkanTracer::Impl {
     pipelineStats.cacheError = cache->lastError();
 
     std::array<VkDescriptorPoolSize, 2> sizes{{
-        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kSplitBindings * kMaxBuffersPerArray + 5},
+        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kSplitBindings * kMaxBuffersPerArray + 6},
         {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1},
     }};
     auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
@@ -152,11 +157,12 @@ struct VulkanTracer::Impl {
     vk::check(vkAllocateDescriptorSets(dev, &ai, &descriptorSet), "vkAllocateDescriptorSets");
   }
 
-  // The trace pipeline with the shader's VS_SPLIT_BINDINGS specialization constant set to `split`.
-  vk::UniquePipeline makePipeline(bool split) {
-    VkBool32 value = split ? VK_TRUE : VK_FALSE;
-    VkSpecializationMapEntry entry{0, 0, sizeof value};
-    VkSpecializationInfo spec{1, &entry, sizeof value, &value};
+  // The trace pipeline with the shader's specialization constants VS_SPLIT_BINDINGS = `split` and
+  // VS_BOX_TABLE = `boxes`.
+  vk::UniquePipeline makePipeline(bool split, bool boxes) {
+    VkBool32 values[2] = {split ? VK_TRUE : VK_FALSE, boxes ? VK_TRUE : VK_FALSE};
+    VkSpecializationMapEntry entries[2] = {{0, 0, sizeof(VkBool32)}, {1, sizeof(VkBool32), sizeof(VkBool32)}};
+    VkSpecializationInfo spec{2, entries, sizeof values, values};
     auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
     ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
@@ -202,7 +208,27 @@ struct VulkanTracer::Impl {
       context.upload(dst.buffers[b], 0, bytes + b * elementsPerBuffer * elementSize, dst.buffers[b].size);
   }
 
-  void upload(const SceneArrays& s) {
+  // The box table of vsObjectWalkStepBoxes from the CPU fast path's brick codes: each object's first code
+  // (offset past this header), then the codes. Empty when the tables cannot be built for the scene (too large,
+  // or cells whose mask differs from their occupancy byte) or do not fit one binding: the walk then reads the
+  // hierarchy.
+  static std::vector<std::int32_t> boxTable(const SceneData& scene, std::uint64_t bindingLimit) {
+    LaneTables tables;
+    if (!buildLaneTables(scene, tables) || tables.brickCodes.empty()) return {};
+    std::vector<std::int32_t> table(scene.objects.size());
+    for (std::size_t o = 0; o < table.size(); ++o) table[o] = std::int32_t(table.size()) + tables.objectBrickBase[o];
+    table.insert(table.end(), tables.brickCodes.begin(), tables.brickCodes.end());
+    if (table.size() * sizeof(std::int32_t) > bindingLimit) return {};
+    return table;
+  }
+
+  void upload(const SceneData& scene) {
+    std::vector<std::int32_t> table;
+    if (options.boxTable) table = boxTable(scene, bindingLimit());
+    upload(SceneArrays::from(scene), table);
+  }
+
+  void upload(const SceneArrays& s, std::span<const std::int32_t> table = {}) {
     const VulkanDeviceInfo& info = context.info();
     const std::uint64_t limit = bindingLimit();
     struct Src {
@@ -261,13 +287,19 @@ struct VulkanTracer::Impl {
     for (int a = 0; a < 4; ++a)
       uploadArray(whole[a], wholeSrc[a].data, wholeSrc[a].elements, wholeSrc[a].size,
                   std::max<std::uint64_t>(wholeSrc[a].elements, 1), 0);
+    if (table.empty()) {
+      boxCodes = DeviceArray{};
+    } else {
+      uploadArray(boxCodes, table.data(), table.size(), sizeof(std::int32_t), table.size(), 0);
+    }
+    boxTableUploaded = !table.empty();
     nodeCount = static_cast<std::uint32_t>(s.nodes.size());
     uploaded = true;
   }
 
   void writeDescriptors() {
     std::vector<VkDescriptorBufferInfo> infos;
-    infos.reserve(kSplitBindings * kMaxBuffersPerArray + 5);
+    infos.reserve(kSplitBindings * kMaxBuffersPerArray + 6);
     std::vector<VkWriteDescriptorSet> writes;
     auto bufferInfo = [&](const vk::Buffer* b) {
       const vk::Buffer& use = b ? *b : placeholder;
@@ -303,6 +335,15 @@ struct VulkanTracer::Impl {
       w.descriptorCount = 1;
       w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
       w.pBufferInfo = bufferInfo(singles[i]);
+      writes.push_back(w);
+    }
+    {
+      auto w = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+      w.dstSet = descriptorSet;
+      w.dstBinding = kBoxCodesBinding;
+      w.descriptorCount = 1;
+      w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      w.pBufferInfo = bufferInfo(boxCodes.buffers.empty() ? nullptr : &boxCodes.buffers[0]);
       writes.push_back(w);
     }
     VkDescriptorImageInfo imageInfo{VK_NULL_HANDLE, image.view.get(), VK_IMAGE_LAYOUT_GENERAL};
@@ -386,9 +427,14 @@ struct VulkanTracer::Impl {
 
     ensureQueries(layerCount + 1);
     const bool useSplit = splitBindings();
-    if (useSplit && !splitPipeline) {
-      splitPipeline = makePipeline(true);
-      cache->save();
+    VkPipeline tracePipeline = pipeline.pipeline.get();
+    if (useSplit || boxTableUploaded != options.boxTable) {
+      vk::UniquePipeline& variant = variants[(useSplit ? 2 : 0) + (boxTableUploaded ? 1 : 0)];
+      if (!variant) {
+        variant = makePipeline(useSplit, boxTableUploaded);
+        cache->save();
+      }
+      tracePipeline = variant.get();
     }
     TracePush push{};
     push.nodeCount = nodeCount;
@@ -407,8 +453,7 @@ struct VulkanTracer::Impl {
         vkCmdResetQueryPool(cmd, queryPool.get(), 0, queries);
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queryPool.get(), 0);
       }
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
-                        useSplit ? splitPipeline.get() : pipeline.pipeline.get());
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, tracePipeline);
       vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet, 0,
                               nullptr);
       // One dispatch per layer, sized to its own rectangle: no workgroups wasted on a batch's largest view,
@@ -486,7 +531,8 @@ struct VulkanTracer::Impl {
 
 VulkanTracer::VulkanTracer(const VulkanOptions& options) : impl_(std::make_unique<Impl>(options)) {}
 VulkanTracer::~VulkanTracer() = default;
-void VulkanTracer::upload(const SceneData& scene) { impl_->upload(SceneArrays::from(scene)); }
+void VulkanTracer::upload(const SceneData& scene) { impl_->upload(scene); }
+bool VulkanTracer::boxTableInUse() const { return impl_->boxTableUploaded; }
 void VulkanTracer::upload(const SceneArrays& scene) { impl_->upload(scene); }
 TraceStats VulkanTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) {
   return impl_->trace(views, layers);

@@ -25,6 +25,10 @@ struct VulkanOptions {
   // Largest storage-buffer binding to use, in bytes; 0 uses the device's maxStorageBufferRange. Smaller
   // values split the scene arrays into more buffers (the path large scenes take), e.g. to test it.
   std::uint64_t maxBindingBytes = 0;
+  // Walk objects through a box table built on upload(const SceneData&) (one read per step, large empty boxes;
+  // the same texels) instead of the brickmap hierarchy. Off, or where the table cannot be built, the shader
+  // walks the hierarchy exactly as the CPU reference does.
+  bool boxTable = true;
 };
 
 // Views into the arrays the shader reads, named as its buffers. Lets callers trace arrays they assembled
@@ -81,8 +85,12 @@ class VulkanTracer {
   // buffers. Throws vs::Error(Runtime) naming the limit when an array needs more than kMaxBuffersPerArray
   // bindings of the binding limit, an unsplit array exceeds maxStorageBufferRange, or the whole scene
   // exceeds the device-local heap. Preconditions: the arrays are consistent (as SceneData::build makes them).
+  // upload(const SceneData&) also builds and uploads the box table (VulkanOptions::boxTable); arrays given
+  // as SceneArrays are walked through the hierarchy.
   void upload(const SceneData& scene);
   void upload(const SceneArrays& scene);
+  // Whether the last upload() gave the shader a box table.
+  bool boxTableInUse() const;
 
   // Traces views[i]'s texel rectangle into layers[i] (layers resized to views.size(); a layer whose size
   // differs from its view is resized and zero-filled; texels outside the rectangle keep their values).
