@@ -1,10 +1,11 @@
 // lane_tracer.h: the CPU fast path. The portable object walk (compute/shared/traverse.h) of eight rays at
 // once, one ray per AVX2 lane: every lane performs the very IEEE operations of vsObjectWalkStep in the same
 // order (no fused multiply-add, glm's min/max operand order, floor by rounding toward -inf, the highest axis on
-// exit ties), so each texel equals the reference per-ray traversal's bit for bit. No step is skipped: a lane
-// runs exactly the reference's sequence of cells. What is cheaper is how each step learns its cell size:
-// dense per-object tables (built per trace from the brickmap) answer "region / sector / brick empty" with one
-// gather, instead of the chain of dependent loads and branches of vsWalkCellLog2.
+// exit ties), so each texel equals the reference per-ray traversal's bit for bit. What differs is how far a
+// step goes: dense per-object tables (built once per scene from the brickmap) answer "brick full / partial /
+// empty" with one gather, and give an empty brick the largest empty box grown around it, often many bricks
+// long; the canonical voxel order of traverse.h makes the voxel where a lane stops, and its t, the same as
+// the reference's however far each step went.
 //
 // Four groups of eight lanes are stepped in three parts each, so that the groups' gathers overlap. A lane
 // whose ray finishes takes the next ray at once. Rays are set up by the portable scalar code (vsViewRay,
