@@ -4,7 +4,9 @@
 //
 // Both sides run the same portable traversal (compute/shared/traverse.h) with `precise` arithmetic in GLSL and
 // -ffp-contract=off in C++, so the expected difference is zero; the tests allow 1e-4 voxel of depth and print
-// the largest difference they measured.
+// the largest difference they measured. By default the shader walks objects through the box table, the CPU
+// reference through the brickmap hierarchy: the canonical voxel order makes them agree bit for bit, and the
+// shader's hierarchy walk is checked too (HierarchyWalkMatchesCpu).
 #include <algorithm>
 #include <bit>
 #include <chrono>
@@ -214,6 +216,25 @@ TEST_F(VulkanTrace, ManyInstancesMatchCpu) {
 TEST_F(VulkanTrace, City512MatchesCpu) {
   auto scene = test::city512Scene();
   expectGpuMatchesCpu(*tracer_, scene.name, scene.data, standardViews(scene.data.worldBounds, 128));
+  EXPECT_TRUE(tracer_->boxTableInUse());  // the default walk: the box table
+}
+
+// The shader's other walk, through the brickmap hierarchy as the CPU reference walks it (taken when no box
+// table can be built), on the hostile floor scene and city512.
+TEST_F(VulkanTrace, HierarchyWalkMatchesCpu) {
+  VulkanOptions options;
+  options.boxTable = false;
+  VulkanTracer hierarchy(options);
+  std::vector<test::TestScene> scenes;
+  scenes.push_back(test::floorScene());
+  scenes.push_back(test::city512Scene());
+  for (const auto& scene : scenes) {
+    Comparison c = expectGpuMatchesCpu(hierarchy, scene.name + " (hierarchy walk)", scene.data,
+                                       standardViews(scene.data.worldBounds, 96));
+    EXPECT_FALSE(hierarchy.boxTableInUse());
+    EXPECT_EQ(c.bitDifferent, 0u) << scene.name;
+  }
+  for (const std::string& m : hierarchy.validationMessages()) ADD_FAILURE() << "validation: " << m;
 }
 
 // Instances of every third-party asset, rotated and scaled non-uniformly (as in trace_cpu_test.cpp).
