@@ -93,6 +93,7 @@ TEST(CliVulkan, BakeOnAChosenDeviceEqualsTheCpuBake) {
       << out;
   EXPECT_TRUE(contains(out, "device " + devices[0].name)) << out;
   EXPECT_TRUE(contains(out, "3 trace calls")) << out;  // three view sizes, eight views
+  EXPECT_TRUE(contains(out, "walk through the box table")) << out;
   EXPECT_TRUE(contains(out, "pipeline creation")) << out;
   EXPECT_TRUE(contains(out, "view torch.face-z")) << out;
   EXPECT_TRUE(contains(out, "Mrays/s")) << out;

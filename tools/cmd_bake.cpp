@@ -50,6 +50,7 @@ struct VulkanBakeStats {
   std::string device;
   PipelineStats pipeline;
   std::size_t dispatchCalls = 0;
+  bool boxTable = false;          // the shader walked the box table (else the brickmap hierarchy)
   std::vector<double> viewGpuMs;  // per view; < 0 when the device has no timestamps
   double wallMs = 0.0;
 };
@@ -70,6 +71,7 @@ std::vector<ShadowLayer> traceOnVulkan(const Scene& scene, const std::vector<Lig
   stats.device = tracer.device().name;
   stats.pipeline = tracer.pipelineStats();
   tracer.upload(scene.data());
+  stats.boxTable = tracer.boxTableInUse();
   std::vector<std::pair<int, int>> sizes;
   for (const LightView& v : views) {
     std::pair<int, int> size(v.trace.info.x, v.trace.info.y);
@@ -186,8 +188,9 @@ void runBake(const BakeOptions& options) {
       const PipelineStats& p = vulkanStats.pipeline;
       std::error_code ec;
       auto cacheBytes = std::filesystem::file_size(p.cacheFile, ec);
-      std::printf("  device %s, %zu trace call%s (one per view size)\n", vulkanStats.device.c_str(),
-                  vulkanStats.dispatchCalls, vulkanStats.dispatchCalls == 1 ? "" : "s");
+      std::printf("  device %s, %zu trace call%s (one per view size), walk through the %s\n",
+                  vulkanStats.device.c_str(), vulkanStats.dispatchCalls, vulkanStats.dispatchCalls == 1 ? "" : "s",
+                  vulkanStats.boxTable ? "box table" : "brickmap hierarchy");
       std::printf("  pipeline creation %.1f ms, %s cache (%s, %llu bytes%s)\n", p.createMs,
                   p.warmCache ? "warm" : "cold", p.cacheFile.c_str(), ec ? 0ull : (unsigned long long)cacheBytes,
                   p.cacheSaved ? "" : (", not saved: " + p.cacheError).c_str());

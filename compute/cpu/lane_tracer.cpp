@@ -827,6 +827,32 @@ struct TexelStream {
   }
 };
 
+// Gives every lane of the groups a ray (refill(k, i)), then steps all groups until no lane walks. A lane that
+// finishes is handed to finished(k, i, hit), which gives it its next ray (or leaves it idle).
+template <class Refill, class Finished>
+void stepLaneGroups(const gpu::SceneArrays& arrays, const LaneTables& tables, Lanes* groups, int groupCount,
+                    Refill refill, Finished finished) {
+  int liveCount = 0;
+  for (int k = 0; k < groupCount; ++k)
+    for (int i = 0; i < kLanes; ++i) {
+      refill(k, i);
+      liveCount += groups[k].live[i] != 0;
+    }
+  while (liveCount > 0) {
+    for (int k = 0; k < groupCount; ++k) beginStepLanes(tables, groups[k]);
+    for (int k = 0; k < groupCount; ++k) lookupLanes(arrays, tables, groups[k]);
+    for (int k = 0; k < groupCount; ++k) {
+      Lanes& L = groups[k];
+      int hits = 0;
+      for (int done = advanceLanes(L, hits); done != 0; done &= done - 1) {
+        int i = __builtin_ctz(unsigned(done));
+        finished(k, i, ((hits >> i) & 1) != 0);
+        if (L.live[i] == 0) --liveCount;
+      }
+    }
+  }
+}
+
 // Places a walk set up by setupBatch in lane i. The object's fields of the lanes were set once
 // (initSingleLanes): every lane walks the same object.
 void loadSingleLane(Lanes& L, int i, const SingleRay& r, int stepsLeft) {
@@ -912,29 +938,11 @@ void traceTilesSingle(gpu::SceneArrays& arrays, const LaneTables& tables, const 
     loadSingleLane(groups[k], i, laneRay[k][i], stepsLeft);
   };
 
-  int liveCount = 0;
-  for (int k = 0; k < kGroups; ++k)
-    for (int i = 0; i < kLanes; ++i) {
-      refill(k, i);
-      liveCount += groups[k].live[i] != 0;
-    }
-  while (liveCount > 0) {
-    for (int k = 0; k < kGroups; ++k) beginStepLanes(tables, groups[k]);
-    for (int k = 0; k < kGroups; ++k) lookupLanes(arrays, tables, groups[k]);
-    for (int k = 0; k < kGroups; ++k) {
-      Lanes& L = groups[k];
-      int hits = 0;
-      int done = advanceLanes(L, hits);
-      for (; done != 0; done &= done - 1) {
-        int i = __builtin_ctz(unsigned(done));
-        bool hit = (hits >> i) & 1;
-        writeTexel(laneRay[k][i], hit, hit ? L.tEnter[i] : laneRay[k][i].tMax,
-                   glm::ivec3(L.v[0][i], L.v[1][i], L.v[2][i]));
-        refill(k, i);
-        if (L.live[i] == 0) --liveCount;
-      }
-    }
-  }
+  stepLaneGroups(arrays, tables, groups.get(), kGroups, refill, [&](int k, int i, bool hit) {
+    const Lanes& L = groups[k];
+    writeTexel(laneRay[k][i], hit, hit ? L.tEnter[i] : laneRay[k][i].tMax, glm::ivec3(L.v[0][i], L.v[1][i], L.v[2][i]));
+    refill(k, i);
+  });
 }
 
 }  // namespace
@@ -1014,34 +1022,18 @@ void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::sp
     loadLane(groups[k], i, r.walk, tables, arrays.instances[r.walkingInstance].info.x);
   };
 
-  int liveCount = 0;
-  for (int k = 0; k < kGroups; ++k)
-    for (int i = 0; i < kLanes; ++i) {
-      refill(k, i);
-      liveCount += groups[k].live[i] != 0;
+  stepLaneGroups(arrays, tables, groups.get(), kGroups, refill, [&](int k, int i, bool hit) {
+    Lanes& L = groups[k];
+    int slot = laneRay[k][i];
+    tile::RayState& r = pool[slot].state;
+    if (hit) tile::recordHit(r, L.tEnter[i], glm::ivec3(L.v[0][i], L.v[1][i], L.v[2][i]));
+    if (tile::beginNextWalk(arrays, r)) {
+      loadLane(L, i, r.walk, tables, arrays.instances[r.walkingInstance].info.x);
+      return;
     }
-  while (liveCount > 0) {
-    for (int k = 0; k < kGroups; ++k) beginStepLanes(tables, groups[k]);
-    for (int k = 0; k < kGroups; ++k) lookupLanes(arrays, tables, groups[k]);
-    for (int k = 0; k < kGroups; ++k) {
-      Lanes& L = groups[k];
-      int hits = 0;
-      int done = advanceLanes(L, hits);
-      for (; done != 0; done &= done - 1) {
-        int i = __builtin_ctz(unsigned(done));
-        int slot = laneRay[k][i];
-        tile::RayState& r = pool[slot].state;
-        if (hits & (1 << i)) tile::recordHit(r, L.tEnter[i], glm::ivec3(L.v[0][i], L.v[1][i], L.v[2][i]));
-        if (tile::beginNextWalk(arrays, r)) {
-          loadLane(L, i, r.walk, tables, arrays.instances[r.walkingInstance].info.x);
-          continue;
-        }
-        finish(slot);
-        refill(k, i);
-        if (L.live[i] == 0) --liveCount;
-      }
-    }
-  }
+    finish(slot);
+    refill(k, i);
+  });
 }
 
 #pragma GCC pop_options

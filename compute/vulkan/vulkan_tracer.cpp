@@ -278,6 +278,7 @@ struct VulkanTracer::Impl {
                      ", more than the device's storage-buffer limit (" + mib(info.maxStorageBufferRange) +
                      ", maxStorageBufferRange) on " + info.name);
     }
+    total += std::uint64_t(table.size()) * sizeof(std::int32_t);
     if (info.deviceLocalBytes > 0 && total > info.deviceLocalBytes)
       throwRuntime("scene needs " + mib(total) + " of device memory, more than the device-local heap (" +
                    mib(info.deviceLocalBytes) + ") of " + info.name);
