@@ -116,23 +116,26 @@ int vsWalkCellLog2(VS_INOUT(ObjectWalk) w) {
   return ((word >> (voxelBit & 31u)) & 1u) != 0u ? -1 : 0;
 }
 
-// Whether the ray has crossed the plane `coord` of `axis` at parameter t, where planes at exactly t count as
-// crossed on the axes above `tieAxis` (-1: every axis, the start of a walk).
-bool vsPlaneCrossed(vec3 o, vec3 invD, int axis, int coord, float t, int tieAxis) {
-  VS_PRECISE float tp = (float(coord) - o[axis]) * invD[axis];
-  return tp < t || (tp == t && axis > tieAxis);
+// Whether a ray along one axis (origin o, inverse direction invD) has crossed the plane `coord` at parameter
+// t; a plane at exactly t counts as crossed when `tieCrossed` (its axis comes before the exit axis in the
+// canonical order, or at the start of a walk).
+// The per-axis helpers take scalars: indexing a vector by a loop variable makes some shader compilers
+// (llvmpipe) keep the whole walk state in per-lane scratch memory.
+bool vsPlaneCrossed(float o, float invD, int coord, float t, bool tieCrossed) {
+  VS_PRECISE float tp = (float(coord) - o) * invD;
+  return tp < t || (tp == t && tieCrossed);
 }
 
-// The coordinate along `axis` (d != 0 there) of the canonical walk's voxel at parameter t, given an estimate c
+// The coordinate along one axis (d != 0) of the canonical walk's voxel at parameter t, given an estimate c
 // from the point o + d*t that lies in [lo, hi] and is off by at most one voxel. Precondition: the voxel's
 // coordinate lies in [lo, hi].
-int vsSettleCoord(vec3 o, vec3 d, vec3 invD, int axis, int c, int lo, int hi, float t, int tieAxis) {
-  if (d[axis] > 0.0f) {
-    if (c > lo && !vsPlaneCrossed(o, invD, axis, c, t, tieAxis)) return c - 1;
-    if (c < hi && vsPlaneCrossed(o, invD, axis, c + 1, t, tieAxis)) return c + 1;
+int vsSettleCoord(float o, float d, float invD, int c, int lo, int hi, float t, bool tieCrossed) {
+  if (d > 0.0f) {
+    if (c > lo && !vsPlaneCrossed(o, invD, c, t, tieCrossed)) return c - 1;
+    if (c < hi && vsPlaneCrossed(o, invD, c + 1, t, tieCrossed)) return c + 1;
   } else {
-    if (c < hi && !vsPlaneCrossed(o, invD, axis, c + 1, t, tieAxis)) return c + 1;
-    if (c > lo && vsPlaneCrossed(o, invD, axis, c, t, tieAxis)) return c - 1;
+    if (c < hi && !vsPlaneCrossed(o, invD, c + 1, t, tieCrossed)) return c + 1;
+    if (c > lo && vsPlaneCrossed(o, invD, c, t, tieCrossed)) return c - 1;
   }
   return c;
 }
@@ -174,9 +177,10 @@ bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax,
   w.d = d;
   w.invD = invD;
   w.v = ivec3(clamp(floor(entry), vec3(vmin), vec3(vmax - ivec3(1))));
-  for (int a = 0; a < 3; ++a) {
-    if (d[a] != 0.0f) w.v[a] = vsSettleCoord(o, d, invD, a, w.v[a], vmin[a], vmax[a] - 1, t0, -1);
-  }
+  // Every plane at t0 counts as crossed: the walk starts on the voxel the ray runs into.
+  if (d.x != 0.0f) w.v.x = vsSettleCoord(o.x, d.x, invD.x, w.v.x, vmin.x, vmax.x - 1, t0, true);
+  if (d.y != 0.0f) w.v.y = vsSettleCoord(o.y, d.y, invD.y, w.v.y, vmin.y, vmax.y - 1, t0, true);
+  if (d.z != 0.0f) w.v.z = vsSettleCoord(o.z, d.z, invD.z, w.v.z, vmin.z, vmax.z - 1, t0, true);
   w.tEnter = t0;
   w.t1 = t1;
   w.stepsLeft = (vmax.x - vmin.x) + (vmax.y - vmin.y) + (vmax.z - vmin.z) + 3;
@@ -189,45 +193,68 @@ bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax,
   return true;
 }
 
+// The t at which a ray along one axis leaves [boxMin, boxEnd) through the face it runs toward (d != 0).
+float vsAxisExit(float o, float d, float invD, int boxMin, int boxEnd) {
+  int bound = d > 0.0f ? boxEnd : boxMin;
+  VS_PRECISE float ta = (float(bound) - o) * invD;
+  return ta;
+}
+
+// The coordinate along one axis of the voxel after the box, left at tExit through axis `exitAxis` (this axis
+// is `axis`): past the box's face on the exit axis, else the canonical coordinate, between the current voxel
+// v and the box's far face (the ray never moves back).
+int vsAxisNext(float o, float d, float invD, int v, int boxMin, int boxEnd, float tExit, int axis, int exitAxis) {
+  if (axis == exitAxis) return d > 0.0f ? boxEnd : boxMin - 1;
+  if (d == 0.0f) return v;
+  VS_PRECISE float p = o + d * tExit;
+  int c = int(clamp(floor(p), float(boxMin), float(boxEnd - 1)));
+  int from = d > 0.0f ? v : boxMin;
+  int to = d > 0.0f ? boxEnd - 1 : v;
+  c = clamp(c, from, to);
+  if (vsNearPlane(p, 1.0f + abs(o) + abs(d * tExit))) c = vsSettleCoord(o, d, invD, c, from, to, tExit, axis > exitAxis);
+  return c;
+}
+
 // Moves the walk past the empty box [boxMin, boxEnd) (voxel coordinates, end exclusive) that holds its
 // voxel: returns VS_WALK_CONTINUE on the box's next voxel in canonical order, or VS_WALK_MISS once the ray has
 // left the object or its span. Any empty box around the voxel leads to the same voxels.
 int vsWalkLeaveBox(VS_INOUT(ObjectWalk) w, ivec3 boxMin, ivec3 boxEnd) {
+  // The nearest face, the highest axis on ties (canonical order).
   VS_PRECISE float tExit = VS_T_INFINITY;
   int exitAxis = -1;
-  for (int a = 0; a < 3; ++a) {
-    if (w.d[a] != 0.0f) {
-      int bound = w.d[a] > 0.0f ? boxEnd[a] : boxMin[a];
-      VS_PRECISE float ta = (float(bound) - w.o[a]) * w.invD[a];
-      if (ta <= tExit) {  // ties go to the higher axis (canonical order)
-        tExit = ta;
-        exitAxis = a;
-      }
+  if (w.d.x != 0.0f) {
+    float tx = vsAxisExit(w.o.x, w.d.x, w.invD.x, boxMin.x, boxEnd.x);
+    if (tx <= tExit) {
+      tExit = tx;
+      exitAxis = 0;
+    }
+  }
+  if (w.d.y != 0.0f) {
+    float ty = vsAxisExit(w.o.y, w.d.y, w.invD.y, boxMin.y, boxEnd.y);
+    if (ty <= tExit) {
+      tExit = ty;
+      exitAxis = 1;
+    }
+  }
+  if (w.d.z != 0.0f) {
+    float tz = vsAxisExit(w.o.z, w.d.z, w.invD.z, boxMin.z, boxEnd.z);
+    if (tz <= tExit) {
+      tExit = tz;
+      exitAxis = 2;
     }
   }
   if (exitAxis < 0 || tExit >= w.t1) return VS_WALK_MISS;
   tExit = max(tExit, w.tEnter);
 
-  VS_PRECISE vec3 p = w.o + w.d * tExit;
-  ivec3 next = w.v;
-  for (int a = 0; a < 3; ++a) {
-    if (a == exitAxis) {
-      next[a] = w.d[a] > 0.0f ? boxEnd[a] : boxMin[a] - 1;
-    } else if (w.d[a] != 0.0f) {
-      float lo = float(boxMin[a]);
-      float hi = float(boxEnd[a] - 1);
-      int c = int(clamp(floor(p[a]), lo, hi));
-      // The ray never moves back: the voxel lies between the current one and the box's far face.
-      int from = w.d[a] > 0.0f ? w.v[a] : boxMin[a];
-      int to = w.d[a] > 0.0f ? boxEnd[a] - 1 : w.v[a];
-      c = clamp(c, from, to);
-      if (vsNearPlane(p[a], 1.0f + abs(w.o[a]) + abs(w.d[a] * tExit))) {
-        c = vsSettleCoord(w.o, w.d, w.invD, a, c, from, to, tExit, exitAxis);
-      }
-      next[a] = c;
-    }
+  ivec3 next = ivec3(vsAxisNext(w.o.x, w.d.x, w.invD.x, w.v.x, boxMin.x, boxEnd.x, tExit, 0, exitAxis),
+                     vsAxisNext(w.o.y, w.d.y, w.invD.y, w.v.y, boxMin.y, boxEnd.y, tExit, 1, exitAxis),
+                     vsAxisNext(w.o.z, w.d.z, w.invD.z, w.v.z, boxMin.z, boxEnd.z, tExit, 2, exitAxis));
+  bvec3 outside = bvec3(next.x < w.obj.voxelMin.x || next.x >= w.obj.voxelMax.x,
+                        next.y < w.obj.voxelMin.y || next.y >= w.obj.voxelMax.y,
+                        next.z < w.obj.voxelMin.z || next.z >= w.obj.voxelMax.z);
+  if ((exitAxis == 0 && outside.x) || (exitAxis == 1 && outside.y) || (exitAxis == 2 && outside.z)) {
+    return VS_WALK_MISS;
   }
-  if (next[exitAxis] < w.obj.voxelMin[exitAxis] || next[exitAxis] >= w.obj.voxelMax[exitAxis]) return VS_WALK_MISS;
   w.v = next;
   w.tEnter = tExit;
   return VS_WALK_CONTINUE;
