@@ -7,6 +7,8 @@
 #include <limits>
 #include <memory>
 
+#include <tbb/parallel_for.h>
+
 #include "compute/cpu/tile_rays.h"
 #include "voxel/error.h"
 
@@ -84,7 +86,8 @@ void encodeEmptyBoxes(std::int32_t* codes, int nx, int ny, int nz) {
   for (int z = nz; z >= 1; --z)
     for (int y = ny; y >= 1; --y)
       for (int x = nx; x >= 1; --x) relax(at(x, y, z), -1);
-  for (int z = 0; z < nz; ++z)
+  // Each brick's box depends only on the tables above: layers of bricks grow their boxes in parallel.
+  tbb::parallel_for(0, nz, [&](int z) {
     for (int y = 0; y < ny; ++y)
       for (int x = 0; x < nx; ++x) {
         std::int32_t& code = codeAt(x, y, z);
@@ -125,6 +128,7 @@ void encodeEmptyBoxes(std::int32_t* codes, int nx, int ny, int nz) {
         }
         code = -1 - box;
       }
+  });
 }
 
 // The brick level of LaneTables, from its sector codes; left empty when too large.
