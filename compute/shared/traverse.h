@@ -148,6 +148,20 @@ bool vsNearPlane(float x, float scale) {
   return abs(x - floor(x + 0.5f)) <= scale * (1.0f / 65536.0f);
 }
 
+// One axis of a slab test against [lo, hi]: narrows [t0, t1] to where the ray lies between the two planes and
+// gives 1/d (0 where d is 0). A ray parallel to the planes is kept when lo <= o and o < hi (o <= hi when
+// `hiExclusive` is false).
+bool vsClipAxis(float o, float d, float lo, float hi, bool hiExclusive, VS_INOUT(float) t0, VS_INOUT(float) t1,
+                VS_INOUT(float) invD) {
+  if (d == 0.0f) return !(o < lo || (hiExclusive ? o >= hi : o > hi));
+  invD = 1.0f / d;
+  VS_PRECISE float tLo = (lo - o) * invD;
+  VS_PRECISE float tHi = (hi - o) * invD;
+  t0 = max(t0, min(tLo, tHi));
+  t1 = min(t1, max(tLo, tHi));
+  return true;
+}
+
 // Clips o + t*d, t in [tMin, tMax], to the object's voxel bounds and places the walk on its first voxel.
 // Returns false when the ray misses the bounds (or the object is empty).
 bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax, VS_INOUT(ObjectWalk) w) {
@@ -156,20 +170,12 @@ bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax,
   ivec3 vmax = ivec3(w.obj.voxelMax);
   if (vmax.x <= vmin.x || vmax.y <= vmin.y || vmax.z <= vmin.z) return false;
 
-  VS_PRECISE vec3 invD = vec3(0.0f);
-  VS_PRECISE float t0 = tMin;
-  VS_PRECISE float t1 = tMax;
-  for (int a = 0; a < 3; ++a) {
-    if (d[a] == 0.0f) {
-      if (o[a] < float(vmin[a]) || o[a] >= float(vmax[a])) return false;
-    } else {
-      invD[a] = 1.0f / d[a];
-      VS_PRECISE float tLo = (float(vmin[a]) - o[a]) * invD[a];
-      VS_PRECISE float tHi = (float(vmax[a]) - o[a]) * invD[a];
-      t0 = max(t0, min(tLo, tHi));
-      t1 = min(t1, max(tLo, tHi));
-    }
-  }
+  vec3 invD = vec3(0.0f);
+  float t0 = tMin;
+  float t1 = tMax;
+  if (!vsClipAxis(o.x, d.x, float(vmin.x), float(vmax.x), true, t0, t1, invD.x)) return false;
+  if (!vsClipAxis(o.y, d.y, float(vmin.y), float(vmax.y), true, t0, t1, invD.y)) return false;
+  if (!vsClipAxis(o.z, d.z, float(vmin.z), float(vmax.z), true, t0, t1, invD.z)) return false;
   if (t0 > t1) return false;
 
   VS_PRECISE vec3 entry = o + d * t0;
@@ -344,19 +350,12 @@ vec3 vsApplyLinear(Affine m, vec3 v) {
 
 // Slab test of o + t*d against a box; returns the entry t, or VS_T_INFINITY when [tMin, tMax] misses it.
 float vsBoxEntry(vec3 bmin, vec3 bmax, vec3 o, vec3 d, float tMin, float tMax) {
-  VS_PRECISE float t0 = tMin;
-  VS_PRECISE float t1 = tMax;
-  for (int a = 0; a < 3; ++a) {
-    if (d[a] == 0.0f) {
-      if (o[a] < bmin[a] || o[a] > bmax[a]) return VS_T_INFINITY;
-    } else {
-      VS_PRECISE float inv = 1.0f / d[a];
-      VS_PRECISE float tLo = (bmin[a] - o[a]) * inv;
-      VS_PRECISE float tHi = (bmax[a] - o[a]) * inv;
-      t0 = max(t0, min(tLo, tHi));
-      t1 = min(t1, max(tLo, tHi));
-    }
-  }
+  float t0 = tMin;
+  float t1 = tMax;
+  float inv = 0.0f;
+  if (!vsClipAxis(o.x, d.x, bmin.x, bmax.x, false, t0, t1, inv)) return VS_T_INFINITY;
+  if (!vsClipAxis(o.y, d.y, bmin.y, bmax.y, false, t0, t1, inv)) return VS_T_INFINITY;
+  if (!vsClipAxis(o.z, d.z, bmin.z, bmax.z, false, t0, t1, inv)) return VS_T_INFINITY;
   return t0 <= t1 ? t0 : VS_T_INFINITY;
 }
 
