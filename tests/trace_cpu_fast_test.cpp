@@ -45,13 +45,7 @@ std::vector<gpu::TraceView> cityViews(const Aabb& b) {
     views.push_back(gridView(center, {1, -1, 0}, 160.0f, res));
     views.push_back(gridView(center, {-1, -1, 1}, 160.0f, res));
   }
-  std::size_t n = views.size();
-  for (std::size_t i = 0; i < n; ++i) {
-    gpu::TraceView center = views[i];
-    center.info.w = gpu::VS_DEPTH_POINT_VOXEL_CENTER;
-    center.rect = glm::ivec4(7, 5, center.info.x - 3, center.info.y - 11);  // not a multiple of the tile
-    views.push_back(center);
-  }
+  test::appendVoxelCenterCopies(views, {7, 5, 3, 11});
   return views;
 }
 

@@ -425,13 +425,7 @@ TEST(TraceCpuInterleaved, MatchesReferenceTexelForTexel) {
   for (const auto& scene : scenes) {
     Aabb b = scene.data.worldBounds.empty() ? Aabb{{-8, -8, -8}, {8, 8, 8}} : scene.data.worldBounds;
     auto views = standardViews(b, 96);
-    std::size_t n = views.size();
-    for (std::size_t i = 0; i < n; ++i) {
-      gpu::TraceView center = views[i];
-      center.info.w = gpu::VS_DEPTH_POINT_VOXEL_CENTER;
-      center.rect = glm::ivec4(5, 3, center.info.x - 7, center.info.y - 2);  // not a multiple of the tile
-      views.push_back(center);
-    }
+    test::appendVoxelCenterCopies(views, {5, 3, 7, 2});
     std::vector<ShadowLayer> reference, interleaved;
     traceCpu(scene.data, views, reference, CpuTracePath::Reference, 2);
     traceCpu(scene.data, views, interleaved, CpuTracePath::Interleaved, 2);

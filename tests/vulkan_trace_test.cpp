@@ -149,13 +149,7 @@ std::vector<gpu::TraceView> standardViews(const Aabb& bounds, int res) {
                                        test::distanceView(c + glm::vec3(0, r * 0.4f, 0), {0.2f, -1, 0.1f}, r * 2, res)};
   const glm::vec3 faces[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
   for (const auto& f : faces) views.push_back(test::distanceView(c + glm::vec3(0.3f, 0.2f, 0.1f), f, r, res / 2));
-  std::size_t n = views.size();
-  for (std::size_t i = 0; i < n; ++i) {
-    gpu::TraceView center = views[i];
-    center.info.w = gpu::VS_DEPTH_POINT_VOXEL_CENTER;
-    center.rect = glm::ivec4(5, 3, center.info.x - 7, center.info.y - 2);
-    views.push_back(center);
-  }
+  test::appendVoxelCenterCopies(views, {5, 3, 7, 2});
   return views;
 }
 

@@ -64,15 +64,16 @@ void CpuTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowL
   }
 
   gpu::SceneArrays arrays(scene);
-  if (path == CpuTracePath::Interleaved && !tablesBuilt_) {
-    auto start = std::chrono::steady_clock::now();
-    lanes_ = laneTracerSupported(scene) && buildLaneTables(scene, *tables_);
-    tablesBuilt_ = true;
-    tableSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  }
   const LaneTables& laneTables = *tables_;
-  const bool lanes = path == CpuTracePath::Interleaved && lanes_;
   auto run = [&] {
+    // Built here, inside the caller's thread count, on the first fast-path trace after a voxel change.
+    if (path == CpuTracePath::Interleaved && !tablesBuilt_) {
+      auto start = std::chrono::steady_clock::now();
+      lanes_ = laneTracerSupported(scene) && buildLaneTables(scene, *tables_);
+      tablesBuilt_ = true;
+      tableSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+    const bool lanes = path == CpuTracePath::Interleaved && lanes_;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, jobs.size()), [&](const tbb::blocked_range<std::size_t>& r) {
       if (lanes) {
         // One stream over the whole range, so that lanes freed by short rays pick up the next tile's texels.

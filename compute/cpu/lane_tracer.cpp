@@ -7,6 +7,7 @@
 #include <limits>
 #include <memory>
 
+#include <glm/gtc/type_ptr.hpp>
 #include <tbb/parallel_for.h>
 
 #include "compute/cpu/tile_rays.h"
@@ -27,10 +28,9 @@ bool laneTracerSupported(const SceneData& scene) {
 
 namespace {
 
-// Replaces the code of every empty brick of one object's brick grid (nx * ny * nz codes, x fastest) by
-// -1 - box, box = the six extents (4 bits each: -x, +x, -y, +y, -z, +z, in cells of 2^log2 voxels, from bit 0)
-// | log2 << 24: the empty box around the brick spans, per axis, from its cell less the - extent to its cell
-// plus the + extent. Bricks outside the grid hold no voxel, so a box may reach past the grid.
+// Replaces the code of every empty brick of one object's brick grid (nx * ny * nz codes, x fastest) by the
+// box-table code of the empty box around it (VS_BOX_* in trace_view.h). Bricks outside the grid hold no voxel,
+// so a box may reach past the grid.
 // The box grows from the largest empty cube of bricks centred on the brick (the chessboard distance to the
 // nearest non-empty brick, less one, by two raster passes over the 26-neighbourhood), face by face in turn,
 // each face by one brick while the slab it adds is empty (a summed-area table answers that), up to
@@ -121,10 +121,10 @@ void encodeEmptyBoxes(std::int32_t* codes, int nx, int ny, int nz) {
         double aligned = std::pow(double(1 << (log2 - gpu::VS_BRICK_LOG2)), 3.0);
         std::int32_t box = 0;
         if (aligned > bricks) {
-          box = log2 << 24;
+          box = log2 << gpu::VS_BOX_LOG2_SHIFT;
         } else {
-          for (int f = 0; f < 6; ++f) box |= ext[f] << (4 * f);
-          box |= gpu::VS_BRICK_LOG2 << 24;
+          for (int f = 0; f < 6; ++f) box |= ext[f] << (gpu::VS_BOX_EXTENT_BITS * f);
+          box |= gpu::VS_BRICK_LOG2 << gpu::VS_BOX_LOG2_SHIFT;
         }
         code = -1 - box;
       }
@@ -263,8 +263,8 @@ struct alignas(32) Lanes {
   // Between the parts of a step (beginStepLanes, lookupLanes, advanceLanes): the voxel's cell log2, whether
   // it is solid, and which lanes walk this step.
   int stepLog2[kLanes], stepHit[kLanes], stepWalking[kLanes];
-  // The empty box of the step in cells of 2^stepLog2 voxels around the voxel's cell: six 4-bit extents
-  // (encodeEmptyBoxes; 0: the aligned cell itself).
+  // The empty box of the step in cells of 2^stepLog2 voxels around the voxel's cell: the six extents of a
+  // box-table code (VS_BOX_*; 0: the aligned cell itself).
   int stepBox[kLanes];
   int stepCode[kLanes];  // the voxel's brick code (LaneTables::brickCodes), read before lookupLanes
   // The object's sector-code table: first code, sector coordinate of code 0, codes per row and per layer.
@@ -318,27 +318,35 @@ void refillBrick(const gpu::SceneArrays& arrays, Lanes& L, int i) {
                            : int(std::uint32_t(L.occupancyWordBase[i]) + b.occupancy * gpu::VS_OCCUPANCY_WORDS);
 }
 
-// Places a walk begun by vsObjectWalkBegin in lane i, with empty caches.
+// The per-ray fields of lane i: the brick-space ray, its first voxel and span, and empty caches.
+void loadLaneRay(Lanes& L, int i, const float* o, const float* d, const float* invD, const int* v, float tEnter,
+                 float t1, int stepsLeft) {
+  const float tLargest = std::max(std::abs(tEnter), std::abs(t1));
+  for (int a = 0; a < 3; ++a) {
+    L.o[a][i] = o[a];
+    L.d[a][i] = d[a];
+    L.invD[a][i] = invD[a];
+    L.v[a][i] = v[a];
+    L.dPositive[a][i] = d[a] > 0.0f ? -1 : 0;
+    L.dNonZero[a][i] = d[a] != 0.0f ? -1 : 0;
+    L.nearBand[a][i] = (1.0f + std::abs(o[a]) + std::abs(d[a]) * tLargest) * (1.0f / 65536.0f) * 1.001f;
+    L.brick[a][i] = gpu::VS_NO_CELL;
+  }
+  L.tEnter[i] = tEnter;
+  L.t1[i] = t1;
+  L.stepsLeft[i] = stepsLeft;
+  L.live[i] = -1;
+}
+
+// Places a walk begun by vsObjectWalkBegin in lane i, with empty caches: its object's fields, then the ray's.
 void loadLane(Lanes& L, int i, const gpu::SceneArrays::ObjectWalk& w, const LaneTables& tables,
               std::uint32_t objectIndex) {
   for (int a = 0; a < 3; ++a) {
-    L.o[a][i] = w.o[a];
-    L.d[a][i] = w.d[a];
-    L.invD[a][i] = w.invD[a];
-    L.v[a][i] = w.v[a];
     L.voxelMin[a][i] = w.obj.voxelMin[a];
     L.voxelMax[a][i] = w.obj.voxelMax[a];
-    L.dPositive[a][i] = w.d[a] > 0.0f ? -1 : 0;
-    L.dNonZero[a][i] = w.d[a] != 0.0f ? -1 : 0;
-    float tLargest = std::max(std::abs(w.tEnter), std::abs(w.t1));
-    L.nearBand[a][i] = (1.0f + std::abs(w.o[a]) + std::abs(w.d[a]) * tLargest) * (1.0f / 65536.0f) * 1.001f;
     L.sectorOrigin[a][i] = 4 * w.obj.regionOrigin[a];
     L.brickOrigin[a][i] = 16 * w.obj.regionOrigin[a];
-    L.brick[a][i] = gpu::VS_NO_CELL;
   }
-  L.tEnter[i] = w.tEnter;
-  L.t1[i] = w.t1;
-  L.stepsLeft[i] = w.stepsLeft;
   L.sectorBase[i] = tables.objectBase[objectIndex];
   L.sectorDims[0][i] = 4 * w.obj.regionDims.x;
   L.sectorDims[1][i] = 4 * w.obj.regionDims.y;
@@ -347,7 +355,8 @@ void loadLane(Lanes& L, int i, const gpu::SceneArrays::ObjectWalk& w, const Lane
   L.brickDims[0][i] = 16 * w.obj.regionDims.x;
   L.brickDims[1][i] = 16 * w.obj.regionDims.y;
   L.occupancyWordBase[i] = int(w.obj.bases2.x);
-  L.live[i] = -1;
+  loadLaneRay(L, i, glm::value_ptr(w.o), glm::value_ptr(w.d), glm::value_ptr(w.invD), glm::value_ptr(w.v), w.tEnter,
+              w.t1, w.stepsLeft);
 }
 
 inline __m256i load(const int* p) { return _mm256_load_si256(reinterpret_cast<const __m256i*>(p)); }
@@ -413,9 +422,9 @@ void lookupLanes(const gpu::SceneArrays& arrays, const LaneTables& tables, Lanes
     fullBrick = _mm256_and_si256(walking, _mm256_cmpeq_epi32(brickCode, _mm256_set1_epi32(kLaneFullBrick)));
     brickPresent =
         _mm256_or_si256(fullBrick, _mm256_and_si256(walking, _mm256_cmpgt_epi32(brickCode, _mm256_set1_epi32(-1))));
-    __m256i box = _mm256_sub_epi32(_mm256_set1_epi32(-1), brickCode);  // extents | log2 << 24 (encodeEmptyBoxes)
-    emptyLog2 = _mm256_srai_epi32(box, 24);
-    emptyBox = _mm256_and_si256(box, _mm256_set1_epi32(0xffffff));
+    __m256i box = _mm256_sub_epi32(_mm256_set1_epi32(-1), brickCode);  // extents | log2 (VS_BOX_*)
+    emptyLog2 = _mm256_srai_epi32(box, gpu::VS_BOX_LOG2_SHIFT);
+    emptyBox = _mm256_and_si256(box, _mm256_set1_epi32((1 << gpu::VS_BOX_LOG2_SHIFT) - 1));
     occupancyBase = brickCode;
   } else {
     // The sector's code (region empty, sector empty, or its index) from the dense table, then the brick from
@@ -535,14 +544,14 @@ int advanceLanes(Lanes& L, int& hits) {
   // walks aligned cells only; a larger empty box around the voxel leads to the same voxels (the canonical
   // order of traverse.h), with fewer steps.
   const __m256i box = load(L.stepBox);
-  const __m256i fifteen = _mm256_set1_epi32(15);
+  const __m256i extentMask = _mm256_set1_epi32(gpu::VS_BOX_EXTENT_MASK);
   __m256i cellMin[3], cellEnd[3], dPositive[3], dNonZero[3];
   __m256 tExit = _mm256_set1_ps(gpu::VS_T_INFINITY);
   __m256i exitAxis = _mm256_set1_epi32(-1);
   for (int a = 0; a < 3; ++a) {
     __m256i cell = _mm256_srav_epi32(v[a], log2Size);
-    __m256i below = _mm256_and_si256(_mm256_srli_epi32(box, 8 * a), fifteen);
-    __m256i above = _mm256_and_si256(_mm256_srli_epi32(box, 8 * a + 4), fifteen);
+    __m256i below = _mm256_and_si256(_mm256_srli_epi32(box, 2 * a * gpu::VS_BOX_EXTENT_BITS), extentMask);
+    __m256i above = _mm256_and_si256(_mm256_srli_epi32(box, (2 * a + 1) * gpu::VS_BOX_EXTENT_BITS), extentMask);
     cellMin[a] = _mm256_sllv_epi32(_mm256_sub_epi32(cell, below), log2Size);
     cellEnd[a] = _mm256_sllv_epi32(_mm256_add_epi32(_mm256_add_epi32(cell, above), one), log2Size);
     dPositive[a] = load(L.dPositive[a]);
@@ -857,24 +866,10 @@ void stepLaneGroups(const gpu::SceneArrays& arrays, const LaneTables& tables, La
   }
 }
 
-// Places a walk set up by setupBatch in lane i. The object's fields of the lanes were set once
-// (initSingleLanes): every lane walks the same object.
+// Places a walk set up by setupBatch in lane i. The object's fields of the lanes were set once: every lane
+// walks the same object.
 void loadSingleLane(Lanes& L, int i, const SingleRay& r, int stepsLeft) {
-  for (int a = 0; a < 3; ++a) {
-    L.o[a][i] = r.lo[a];
-    L.d[a][i] = r.ld[a];
-    L.invD[a][i] = r.invD[a];
-    L.v[a][i] = r.v[a];
-    L.dPositive[a][i] = r.ld[a] > 0.0f ? -1 : 0;
-    L.dNonZero[a][i] = r.ld[a] != 0.0f ? -1 : 0;
-    float tLargest = std::max(std::abs(r.t0), std::abs(r.t1));
-    L.nearBand[a][i] = (1.0f + std::abs(r.lo[a]) + std::abs(r.ld[a]) * tLargest) * (1.0f / 65536.0f) * 1.001f;
-    L.brick[a][i] = gpu::VS_NO_CELL;
-  }
-  L.tEnter[i] = r.t0;
-  L.t1[i] = r.t1;
-  L.stepsLeft[i] = stepsLeft;
-  L.live[i] = -1;
+  loadLaneRay(L, i, r.lo, r.ld, r.invD, r.v, r.t0, r.t1, stepsLeft);
 }
 
 // The single-instance driver: rays are set up eight at a time straight into compact records, lanes take them

@@ -35,13 +35,12 @@ bool laneTracerSupported(const SceneData& scene);
 // Sector codes of every object: VS_REGION_LOG2 / VS_SECTOR_LOG2 negated where the region / sector is empty,
 // else the sector's global index; objectBase[i] is object i's first code, laid out like its region table with
 // 4^3 sectors per region slot (x fastest).
-// When every object's bricks fit kMaxLaneBrickCodes, brickCodes holds the same per brick coordinate (16^3 per
-// region slot): -1 - (extents | log2 << 24) where the brick is empty (the empty box around it, see
-// encodeEmptyBoxes in lane_tracer.cpp),
-// kLaneFullBrick where it is full, else the
-// global index of its first occupancy word. A step then reads one code and one occupancy word. The cell level
-// comes from the occupancy word too (a cell's mask bit is its occupancy byte != 0, brickmap_layout.h); the
-// table is built only when every brick of the scene satisfies that, so the answers are the cell mask's.
+// When every object's bricks fit kMaxLaneBrickCodes, brickCodes holds one box-table code per brick coordinate
+// (VS_BOX_* in compute/shared/trace_view.h; 16^3 per region slot): full, the first occupancy word, or the empty
+// box around the brick (see encodeEmptyBoxes in lane_tracer.cpp). A step then reads one code and one occupancy
+// word. The cell level comes from the occupancy word too (a cell's mask bit is its occupancy byte != 0,
+// brickmap_layout.h); the table is built only when every brick of the scene satisfies that, so the answers are
+// the cell mask's.
 struct LaneTables {
   std::vector<std::int32_t> sectorCodes;
   std::vector<std::int32_t> objectBase;
@@ -53,10 +52,10 @@ struct LaneTables {
 // level is built when it fits maxBrickCodes (0 keeps every step on the sector level and the lane brick cache).
 constexpr std::size_t kMaxLaneSectorCodes = std::size_t(1) << 24;
 constexpr std::size_t kMaxLaneBrickCodes = std::size_t(1) << 22;
-constexpr std::int32_t kLaneFullBrick = std::numeric_limits<std::int32_t>::min();
+constexpr std::int32_t kLaneFullBrick = gpu::VS_BOX_FULL;
 // Largest extent (in bricks, per side) of the empty box recorded around an empty brick: a step crosses up to
-// 2 * 15 + 1 bricks (248 voxels) at once; the 4-bit fields of the code hold no more.
-constexpr int kLaneMaxBoxExtent = 15;
+// 2 * 15 + 1 bricks (248 voxels) at once; the code's extent fields hold no more.
+constexpr int kLaneMaxBoxExtent = gpu::VS_BOX_EXTENT_MASK;
 bool buildLaneTables(const SceneData& scene, LaneTables& tables, std::size_t maxBrickCodes = kMaxLaneBrickCodes);
 
 // Traces every tile into layers[tile.view].texels (row stride layers[..].width).

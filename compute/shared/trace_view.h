@@ -25,6 +25,16 @@ const int VS_WALK_CONTINUE = 0;
 const int VS_WALK_HIT = 1;
 const int VS_WALK_MISS = 2;
 
+// The box table's codes, one per brick (written by compute/cpu/lane_tracer.cpp, read by the CPU lanes and by
+// vsObjectWalkStepBoxes in traverse.h): VS_BOX_FULL for a full brick, the global index of its first occupancy
+// word (>= 0) for a partial one, else -1 - box for an empty one, where box holds six extents of
+// VS_BOX_EXTENT_BITS bits each (-x, +x, -y, +y, -z, +z, in cells of 2^log2 voxels, from bit 0) and log2 from
+// bit VS_BOX_LOG2_SHIFT.
+const int VS_BOX_FULL = int(0x80000000u);
+const int VS_BOX_EXTENT_BITS = 4;
+const int VS_BOX_EXTENT_MASK = 15;
+const int VS_BOX_LOG2_SHIFT = 24;
+
 // No voxel coordinate shifted right by a level's log2 reaches this: marks an object walk's cache as empty.
 const int VS_NO_CELL = 0x7fffffff;
 

@@ -280,14 +280,11 @@ int vsObjectWalkStep(VS_INOUT(ObjectWalk) w) {
 }
 
 #ifdef VS_READ_BOX_CODE
-// The walk over a box table: per object, one code per brick (compute/cpu/lane_tracer.h, LaneTables::brickCodes,
-// laid out like the object's region table with 16^3 bricks per region): VS_BOX_FULL for a full brick, the
-// global index of its first occupancy word for a partial one (whose cells are empty exactly where their
-// occupancy byte is 0), else -1 - (six 4-bit extents | log2 << 24): the empty box around the brick. One read
-// per step instead of the chain from the region table down, and boxes far larger than aligned cells; the
-// canonical order makes the result that of vsObjectWalkStep bit for bit.
-const int VS_BOX_FULL = int(0x80000000u);
-
+// The walk over a box table: per object, one code per brick (VS_BOX_* in trace_view.h; LaneTables::brickCodes
+// of compute/cpu/lane_tracer.h), laid out like the object's region table with 16^3 bricks per region. A partial
+// brick's cells are empty exactly where their occupancy byte is 0. One read per step instead of the chain from
+// the region table down, and boxes far larger than aligned cells; the canonical order makes the result that of
+// vsObjectWalkStep bit for bit.
 int vsObjectWalkStepBoxes(VS_INOUT(ObjectWalk) w, int tableBase) {
   if (w.stepsLeft <= 0) return VS_WALK_MISS;
   w.stepsLeft -= 1;
@@ -305,11 +302,12 @@ int vsObjectWalkStepBoxes(VS_INOUT(ObjectWalk) w, int tableBase) {
     log2 = ((word >> ((cellBit & 3u) * 8u)) & 0xffu) == 0u ? VS_CELL_LOG2 : 0;
   } else {
     box = -1 - code;
-    log2 = box >> 24;
+    log2 = box >> VS_BOX_LOG2_SHIFT;
   }
   ivec3 cell = w.v >> log2;
-  ivec3 below = ivec3(box, box >> 8, box >> 16) & ivec3(15);
-  ivec3 above = ivec3(box >> 4, box >> 12, box >> 20) & ivec3(15);
+  const int bits = VS_BOX_EXTENT_BITS;
+  ivec3 below = ivec3(box, box >> (2 * bits), box >> (4 * bits)) & ivec3(VS_BOX_EXTENT_MASK);
+  ivec3 above = ivec3(box >> bits, box >> (3 * bits), box >> (5 * bits)) & ivec3(VS_BOX_EXTENT_MASK);
   return vsWalkLeaveBox(w, (cell - below) << log2, (cell + above + ivec3(1)) << log2);
 }
 #endif

@@ -322,29 +322,18 @@ struct VulkanTracer::Impl {
       w.pBufferInfo = first;
       writes.push_back(w);
     }
-    const vk::Buffer* singles[5] = {
-        whole[0].buffers.empty() ? nullptr : &whole[0].buffers[0],
-        whole[1].buffers.empty() ? nullptr : &whole[1].buffers[0],
-        whole[2].buffers.empty() ? nullptr : &whole[2].buffers[0],
-        whole[3].buffers.empty() ? nullptr : &whole[3].buffers[0],
-        &viewBuffer,
+    auto first = [](const DeviceArray& a) { return a.buffers.empty() ? nullptr : &a.buffers[0]; };
+    const std::pair<std::uint32_t, const vk::Buffer*> singles[6] = {
+        {kObjectsBinding, first(whole[0])},   {kInstancesBinding, first(whole[1])}, {kNodesBinding, first(whole[2])},
+        {kIndicesBinding, first(whole[3])},   {kViewsBinding, &viewBuffer},         {kBoxCodesBinding, first(boxCodes)},
     };
-    for (std::uint32_t i = 0; i < 5; ++i) {
+    for (const auto& [binding, buffer] : singles) {
       auto w = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
       w.dstSet = descriptorSet;
-      w.dstBinding = kObjectsBinding + i;
+      w.dstBinding = binding;
       w.descriptorCount = 1;
       w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-      w.pBufferInfo = bufferInfo(singles[i]);
-      writes.push_back(w);
-    }
-    {
-      auto w = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
-      w.dstSet = descriptorSet;
-      w.dstBinding = kBoxCodesBinding;
-      w.descriptorCount = 1;
-      w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-      w.pBufferInfo = bufferInfo(boxCodes.buffers.empty() ? nullptr : &boxCodes.buffers[0]);
+      w.pBufferInfo = bufferInfo(buffer);
       writes.push_back(w);
     }
     VkDescriptorImageInfo imageInfo{VK_NULL_HANDLE, image.view.get(), VK_IMAGE_LAYOUT_GENERAL};

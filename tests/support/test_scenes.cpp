@@ -151,4 +151,14 @@ gpu::TraceView distanceView(glm::vec3 position, glm::vec3 direction, float range
                             gpu::VS_DEPTH_POINT_ENTRY, glm::vec4(position, range));
 }
 
+void appendVoxelCenterCopies(std::vector<gpu::TraceView>& views, glm::ivec4 inset) {
+  const std::size_t n = views.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    gpu::TraceView center = views[i];
+    center.info.w = gpu::VS_DEPTH_POINT_VOXEL_CENTER;
+    center.rect = glm::ivec4(inset.x, inset.y, center.info.x - inset.z, center.info.y - inset.w);
+    views.push_back(center);
+  }
+}
+
 }  // namespace vs::test

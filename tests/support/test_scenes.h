@@ -48,6 +48,10 @@ gpu::TraceView directionalView(const Aabb& bounds, glm::vec3 direction, int res)
 // Perspective linear-distance view from `position` looking along `direction`, 90 degree fov.
 gpu::TraceView distanceView(glm::vec3 position, glm::vec3 direction, float range, int res, float fovDeg = 90.0f);
 
+// Appends, for every view in `views`, a copy with the voxel-centre depth point traced over the rectangle
+// inset by `inset` (x0, y0, x1, y1 margins), chosen not to be a multiple of any tile or workgroup.
+void appendVoxelCenterCopies(std::vector<gpu::TraceView>& views, glm::ivec4 inset);
+
 }  // namespace vs::test
 
 #endif
