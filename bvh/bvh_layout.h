@@ -29,20 +29,27 @@ struct InstanceRecord {
   uvec4 info;           // x: object index, y: instance id (user-visible), zw: reserved
 };
 
+// The records read as 16-byte texels (a shader may fetch them from an RGBA32 texel buffer): a node is
+// (boundsMin, rightOrFirst), (boundsMax, count); an instance's members are one texel each, an Affine three.
+const uint VS_NODE_TEXELS = 2u;
+const uint VS_INSTANCE_TEXELS = 9u;
+const uint VS_INSTANCE_BRICK_TO_WORLD_TEXEL = 3u;
+const uint VS_INSTANCE_INFO_TEXEL = 8u;
+
 VS_NAMESPACE_END
 
 #ifndef VS_GLSL
 namespace vs::gpu {
-VS_LAYOUT_CHECK(BvhNode, 32);
+VS_LAYOUT_CHECK(BvhNode, 16 * VS_NODE_TEXELS);
 VS_OFFSET_CHECK(BvhNode, rightOrFirst, 12);
 VS_OFFSET_CHECK(BvhNode, boundsMax, 16);
 VS_OFFSET_CHECK(BvhNode, count, 28);
 VS_LAYOUT_CHECK(Affine, 48);
-VS_LAYOUT_CHECK(InstanceRecord, 144);
-VS_OFFSET_CHECK(InstanceRecord, brickToWorld, 48);
+VS_LAYOUT_CHECK(InstanceRecord, 16 * VS_INSTANCE_TEXELS);
+VS_OFFSET_CHECK(InstanceRecord, brickToWorld, 16 * VS_INSTANCE_BRICK_TO_WORLD_TEXEL);
 VS_OFFSET_CHECK(InstanceRecord, boundsMin, 96);
 VS_OFFSET_CHECK(InstanceRecord, boundsMax, 112);
-VS_OFFSET_CHECK(InstanceRecord, info, 128);
+VS_OFFSET_CHECK(InstanceRecord, info, 16 * VS_INSTANCE_INFO_TEXEL);
 }  // namespace vs::gpu
 #endif
 

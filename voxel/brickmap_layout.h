@@ -25,6 +25,9 @@ const uint VS_EMPTY_SLOT = 0xffffffffu;
 const uint VS_FULL_BRICK = 0xffffffffu;
 // Brick.payload with this bit set: every voxel of the brick has material (payload & 0xff); no payload bytes.
 const uint VS_UNIFORM_PAYLOAD = 0x80000000u;
+// An ObjectRecord read as 16-byte texels (a shader may fetch records from an RGBA32 texel buffer; each member
+// is one texel, in declaration order).
+const uint VS_OBJECT_TEXELS = 6u;
 
 struct Region {
   uvec2 sectorMask;  // which of the 4^3 sectors hold any solid voxel
@@ -66,7 +69,7 @@ VS_OFFSET_CHECK(Sector, firstBrick, 8);
 VS_LAYOUT_CHECK(Brick, 16);
 VS_OFFSET_CHECK(Brick, occupancy, 8);
 VS_OFFSET_CHECK(Brick, payload, 12);
-VS_LAYOUT_CHECK(ObjectRecord, 96);
+VS_LAYOUT_CHECK(ObjectRecord, 16 * VS_OBJECT_TEXELS);
 VS_OFFSET_CHECK(ObjectRecord, regionDims, 16);
 VS_OFFSET_CHECK(ObjectRecord, voxelMin, 32);
 VS_OFFSET_CHECK(ObjectRecord, voxelMax, 48);

@@ -1,8 +1,15 @@
 // shadow_trace.comp: one invocation per shadow texel, running the portable traversal (compute/shared/traverse.h).
 //
-// Dispatch: one per layer (or per run of layers): x, y cover the texel rectangle (8x8 workgroups), z counts
-// layers from layerBase. Each invocation offsets by its layer's rectangle origin and skips texels outside the
-// rectangle, so a partial re-trace touches only the texels it was asked for.
+// Dispatch: one per layer: x, y cover the layer's texel rectangle (8x8 workgroups). Each invocation offsets by
+// the rectangle's origin and skips texels outside it, so a partial re-trace touches only the texels it was
+// asked for.
+//
+// How the scene is read matters on llvmpipe (lavapipe), which runs 8 invocations as the lanes of one SIMD
+// register: it loads from a storage buffer at a per-invocation index one lane at a time, behind a branch per
+// lane, which made the per-ray record loads cost more than the walk. A texel fetch is one gather for all lanes,
+// and a uniform-buffer member at a uniform offset one scalar load. So the records every ray reads (view,
+// instances, nodes, objects) and the box table come as uniform and texel buffers; only the brickmap hierarchy,
+// read where no box table exists, stays in storage buffers (which may be split across bindings).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #define VS_GLSL 1
@@ -21,24 +28,29 @@ layout(std430, set = 0, binding = 1) readonly buffer RegionChunk { Region data[]
 layout(std430, set = 0, binding = 2) readonly buffer SectorChunk { Sector data[]; } sectorChunks[VS_MAX_CHUNKS];
 layout(std430, set = 0, binding = 3) readonly buffer BrickChunk { Brick data[]; } brickChunks[VS_MAX_CHUNKS];
 layout(std430, set = 0, binding = 4) readonly buffer OccupancyChunk { uint data[]; } occupancyChunks[VS_MAX_CHUNKS];
-layout(std430, set = 0, binding = 5) readonly buffer ObjectBuffer { ObjectRecord objects[]; };
-layout(std430, set = 0, binding = 6) readonly buffer InstanceBuffer { InstanceRecord instances[]; };
-layout(std430, set = 0, binding = 7) readonly buffer NodeBuffer { BvhNode nodes[]; };
-layout(std430, set = 0, binding = 8) readonly buffer InstanceIndexBuffer { uint instanceIndices[]; };
-layout(std430, set = 0, binding = 9) readonly buffer ViewBuffer { TraceView views[]; };
+// Records as RGBA32UI texels (the VS_*_TEXELS of the layout headers), instance indices as R32UI.
+layout(set = 0, binding = 5) uniform usamplerBuffer objectTexels;
+layout(set = 0, binding = 6) uniform usamplerBuffer instanceTexels;
+layout(set = 0, binding = 7) uniform usamplerBuffer nodeTexels;
+layout(set = 0, binding = 8) uniform usamplerBuffer instanceIndexTexels;
+// The layer's view, bound at a dynamic offset per dispatch. Every TraceView member is 16-byte aligned, so its
+// std140 layout is its std430 one.
+layout(std140, set = 0, binding = 9) uniform ViewBlock { TraceView currentView; };
 layout(set = 0, binding = 10, r32f) uniform writeonly image2DArray shadowImage;
-// The box table (traverse.h, vsObjectWalkStepBoxes): one first-code index per object, then the codes.
-layout(std430, set = 0, binding = 11) readonly buffer BoxCodeBuffer { int boxCodes[]; };
+// The box table (traverse.h, vsObjectWalkStepBoxes): one first-code index per object, the codes, then the
+// occupancy words the codes of partial bricks point to. A texel buffer, not a storage buffer: llvmpipe reads
+// a storage buffer at a per-invocation index one SIMD lane at a time, behind a branch per lane, while a texel
+// fetch is one gather for all lanes, and the walk does little else per step.
+layout(set = 0, binding = 11) uniform isamplerBuffer boxTable;
 
 layout(push_constant) uniform TracePush {
   uint nodeCount;
-  uint layerCount;
   uint regionTableShift;
   uint regionShift;
   uint sectorShift;
   uint brickShift;
   uint occupancyShift;
-  uint layerBase;  // layer of gl_GlobalInvocationID.z == 0
+  uint layer;  // the image layer this dispatch writes
 };
 
 // False when every array fits one binding (the usual case). A specialization constant, so the pipeline
@@ -48,6 +60,10 @@ layout(constant_id = 0) const bool VS_SPLIT_BINDINGS = true;
 // True when the host uploaded a box table: the object walks read it instead of the brickmap hierarchy
 // (fewer, cheaper steps; same texels). A specialization constant, so each pipeline holds one walk only.
 layout(constant_id = 1) const bool VS_BOX_TABLE = false;
+// True when the dispatch's view puts its depth at the hit voxel's centre (TraceView info.w): a specialization
+// constant, so a dispatch runs only its own view's depth code (llvmpipe would run both, lanes masked off).
+layout(constant_id = 2) const bool VS_DEPTH_AT_CENTER = false;
+#define VS_VIEW_DEPTH_AT_CENTER(view) VS_DEPTH_AT_CENTER
 
 // A chunk index differs between invocations, so each case indexes the block array with a constant:
 // no non-uniform descriptor indexing is needed.
@@ -73,15 +89,40 @@ uint vsReadOccupancy(uint i) { VS_CHUNK_READ(uint, occupancyChunks, occupancyShi
 #define VS_READ_SECTORS(i) vsReadSector(i)
 #define VS_READ_BRICKS(i) vsReadBrick(i)
 #define VS_READ_OCCUPANCY(i) vsReadOccupancy(i)
-#define VS_READ_BOX_CODE(i) boxCodes[i]
+#define VS_READ_BOX_CODE(i) texelFetch(boxTable, int(i)).x
+
+// The walk over the box table reads no array bases: that pipeline skips their fetches.
+ObjectRecord vsReadObject(uint i) {
+  int t = int(i * VS_OBJECT_TEXELS);
+  return ObjectRecord(ivec4(texelFetch(objectTexels, t)), ivec4(texelFetch(objectTexels, t + 1)),
+                      ivec4(texelFetch(objectTexels, t + 2)), ivec4(texelFetch(objectTexels, t + 3)),
+                      VS_BOX_TABLE ? uvec4(0u) : texelFetch(objectTexels, t + 4),
+                      VS_BOX_TABLE ? uvec4(0u) : texelFetch(objectTexels, t + 5));
+}
+
+BvhNode vsReadNode(uint i) {
+  int t = int(i * VS_NODE_TEXELS);
+  uvec4 lo = texelFetch(nodeTexels, t);
+  uvec4 hi = texelFetch(nodeTexels, t + 1);
+  return BvhNode(uintBitsToFloat(lo.xyz), lo.w, uintBitsToFloat(hi.xyz), hi.w);
+}
+
+Affine vsReadAffine(int t) {
+  return Affine(uintBitsToFloat(texelFetch(instanceTexels, t)), uintBitsToFloat(texelFetch(instanceTexels, t + 1)),
+                uintBitsToFloat(texelFetch(instanceTexels, t + 2)));
+}
+
+#define VS_READ_OBJECT(i) vsReadObject(i)
+#define VS_READ_NODE(i) vsReadNode(i)
+#define VS_READ_INSTANCE_INDEX(i) texelFetch(instanceIndexTexels, int(i)).x
+#define VS_READ_INSTANCE_OBJECT(i) texelFetch(instanceTexels, int((i) * VS_INSTANCE_TEXELS + VS_INSTANCE_INFO_TEXEL)).x
+#define VS_READ_WORLD_TO_BRICK(i) vsReadAffine(int((i) * VS_INSTANCE_TEXELS))
+#define VS_READ_BRICK_TO_WORLD(i) vsReadAffine(int((i) * VS_INSTANCE_TEXELS + VS_INSTANCE_BRICK_TO_WORLD_TEXEL))
 
 #include "compute/shared/traverse.h"
 
 void main() {
-  uint layer = gl_GlobalInvocationID.z + layerBase;
-  if (layer >= layerCount) return;
-  TraceView view = views[layer];
-  ivec2 texel = view.rect.xy + ivec2(gl_GlobalInvocationID.xy);
-  if (texel.x >= view.rect.z || texel.y >= view.rect.w) return;
-  imageStore(shadowImage, ivec3(texel, int(layer)), vec4(vsShadowTexel(view, texel)));
+  ivec2 texel = currentView.rect.xy + ivec2(gl_GlobalInvocationID.xy);
+  if (texel.x >= currentView.rect.z || texel.y >= currentView.rect.w) return;
+  imageStore(shadowImage, ivec3(texel, int(layer)), vec4(vsShadowTexel(currentView, texel)));
 }

@@ -21,7 +21,8 @@
 // the same texels bit for bit.
 //
 // The per-object arrays can outgrow one storage-buffer binding (maxStorageBufferRange); an includer that
-// splits them defines these readers before including this body. By default they index the named array.
+// splits them, or reads records some other way (texel fetches), defines these readers before including this
+// body. By default they index the named array.
 #ifndef VS_READ_REGION_TABLE
 #define VS_READ_REGION_TABLE(i) regionTable[i]
 #endif
@@ -36,6 +37,29 @@
 #endif
 #ifndef VS_READ_OCCUPANCY
 #define VS_READ_OCCUPANCY(i) occupancy[i]
+#endif
+// Whether a view's depth is taken at the hit voxel's centre; an includer that compiles one view kind at a time
+// defines it as a constant.
+#ifndef VS_VIEW_DEPTH_AT_CENTER
+#define VS_VIEW_DEPTH_AT_CENTER(view) ((view).info.w == VS_DEPTH_POINT_VOXEL_CENTER)
+#endif
+#ifndef VS_READ_OBJECT
+#define VS_READ_OBJECT(i) objects[i]
+#endif
+#ifndef VS_READ_NODE
+#define VS_READ_NODE(i) nodes[i]
+#endif
+#ifndef VS_READ_INSTANCE_INDEX
+#define VS_READ_INSTANCE_INDEX(i) instanceIndices[i]
+#endif
+#ifndef VS_READ_INSTANCE_OBJECT
+#define VS_READ_INSTANCE_OBJECT(i) instances[i].info.x
+#endif
+#ifndef VS_READ_WORLD_TO_BRICK
+#define VS_READ_WORLD_TO_BRICK(i) instances[i].worldToBrick
+#endif
+#ifndef VS_READ_BRICK_TO_WORLD
+#define VS_READ_BRICK_TO_WORLD(i) instances[i].brickToWorld
 #endif
 
 // Rank of `bit` inside a 64-bit mask: how many set bits lie below it.
@@ -130,22 +154,14 @@ bool vsPlaneCrossed(float o, float invD, int coord, float t, bool tieCrossed) {
 // from the point o + d*t that lies in [lo, hi] and is off by at most one voxel. Precondition: the voxel's
 // coordinate lies in [lo, hi].
 int vsSettleCoord(float o, float d, float invD, int c, int lo, int hi, float t, bool tieCrossed) {
-  if (d > 0.0f) {
-    if (c > lo && !vsPlaneCrossed(o, invD, c, t, tieCrossed)) return c - 1;
-    if (c < hi && vsPlaneCrossed(o, invD, c + 1, t, tieCrossed)) return c + 1;
-  } else {
-    if (c < hi && !vsPlaneCrossed(o, invD, c + 1, t, tieCrossed)) return c + 1;
-    if (c > lo && vsPlaneCrossed(o, invD, c, t, tieCrossed)) return c - 1;
-  }
-  return c;
-}
-
-// Whether floor(x), x = o + d*t along one axis, could disagree with the plane comparisons of vsPlaneCrossed: only
-// when x lies within a hair of an integer plane. The rounding errors of x and of a plane's t amount to less than
-// 2^-21 of `scale` = 1 + |o| + |d*t| in position; the band is 32 times that, so outside it floor(x) is the
-// canonical coordinate and the comparisons can be skipped.
-bool vsNearPlane(float x, float scale) {
-  return abs(x - floor(x + 0.5f)) <= scale * (1.0f / 65536.0f);
+  // Straight-line code (no branch any SIMD lane could take alone): the two planes around c decide.
+  bool up = d > 0.0f;
+  bool lowCrossed = vsPlaneCrossed(o, invD, c, t, tieCrossed);
+  bool highCrossed = vsPlaneCrossed(o, invD, c + 1, t, tieCrossed);
+  bool back = up ? c > lo && !lowCrossed : c < hi && !highCrossed;  // c is past the voxel
+  bool ahead = up ? c < hi && highCrossed : c > lo && lowCrossed;   // c falls short of it
+  int step = up ? 1 : -1;
+  return back ? c - step : (ahead ? c + step : c);
 }
 
 // One axis of a slab test against [lo, hi]: narrows [t0, t1] to where the ray lies between the two planes and
@@ -153,19 +169,19 @@ bool vsNearPlane(float x, float scale) {
 // `hiExclusive` is false).
 bool vsClipAxis(float o, float d, float lo, float hi, bool hiExclusive, VS_INOUT(float) t0, VS_INOUT(float) t1,
                 VS_INOUT(float) invD) {
-  if (d == 0.0f) return !(o < lo || (hiExclusive ? o >= hi : o > hi));
-  invD = 1.0f / d;
+  bool parallel = d == 0.0f;
+  invD = parallel ? 0.0f : 1.0f / d;
   VS_PRECISE float tLo = (lo - o) * invD;
   VS_PRECISE float tHi = (hi - o) * invD;
-  t0 = max(t0, min(tLo, tHi));
-  t1 = min(t1, max(tLo, tHi));
-  return true;
+  t0 = parallel ? t0 : max(t0, min(tLo, tHi));
+  t1 = parallel ? t1 : min(t1, max(tLo, tHi));
+  return !parallel || !(o < lo || (hiExclusive ? o >= hi : o > hi));
 }
 
 // Clips o + t*d, t in [tMin, tMax], to the object's voxel bounds and places the walk on its first voxel.
 // Returns false when the ray misses the bounds (or the object is empty).
 bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax, VS_INOUT(ObjectWalk) w) {
-  w.obj = objects[objectIndex];
+  w.obj = VS_READ_OBJECT(objectIndex);
   ivec3 vmin = ivec3(w.obj.voxelMin);
   ivec3 vmax = ivec3(w.obj.voxelMax);
   if (vmax.x <= vmin.x || vmax.y <= vmin.y || vmax.z <= vmin.z) return false;
@@ -173,10 +189,11 @@ bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax,
   vec3 invD = vec3(0.0f);
   float t0 = tMin;
   float t1 = tMax;
-  if (!vsClipAxis(o.x, d.x, float(vmin.x), float(vmax.x), true, t0, t1, invD.x)) return false;
-  if (!vsClipAxis(o.y, d.y, float(vmin.y), float(vmax.y), true, t0, t1, invD.y)) return false;
-  if (!vsClipAxis(o.z, d.z, float(vmin.z), float(vmax.z), true, t0, t1, invD.z)) return false;
-  if (t0 > t1) return false;
+  // All three axes, then one test: no branch per axis for SIMD lanes to diverge on.
+  bool inX = vsClipAxis(o.x, d.x, float(vmin.x), float(vmax.x), true, t0, t1, invD.x);
+  bool inY = vsClipAxis(o.y, d.y, float(vmin.y), float(vmax.y), true, t0, t1, invD.y);
+  bool inZ = vsClipAxis(o.z, d.z, float(vmin.z), float(vmax.z), true, t0, t1, invD.z);
+  if (!(inX && inY && inZ) || t0 > t1) return false;
 
   VS_PRECISE vec3 entry = o + d * t0;
   w.o = o;
@@ -184,9 +201,10 @@ bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax,
   w.invD = invD;
   w.v = ivec3(clamp(floor(entry), vec3(vmin), vec3(vmax - ivec3(1))));
   // Every plane at t0 counts as crossed: the walk starts on the voxel the ray runs into.
-  if (d.x != 0.0f) w.v.x = vsSettleCoord(o.x, d.x, invD.x, w.v.x, vmin.x, vmax.x - 1, t0, true);
-  if (d.y != 0.0f) w.v.y = vsSettleCoord(o.y, d.y, invD.y, w.v.y, vmin.y, vmax.y - 1, t0, true);
-  if (d.z != 0.0f) w.v.z = vsSettleCoord(o.z, d.z, invD.z, w.v.z, vmin.z, vmax.z - 1, t0, true);
+  int sx = vsSettleCoord(o.x, d.x, invD.x, w.v.x, vmin.x, vmax.x - 1, t0, true);
+  int sy = vsSettleCoord(o.y, d.y, invD.y, w.v.y, vmin.y, vmax.y - 1, t0, true);
+  int sz = vsSettleCoord(o.z, d.z, invD.z, w.v.z, vmin.z, vmax.z - 1, t0, true);
+  w.v = ivec3(d.x != 0.0f ? sx : w.v.x, d.y != 0.0f ? sy : w.v.y, d.z != 0.0f ? sz : w.v.z);
   w.tEnter = t0;
   w.t1 = t1;
   w.stepsLeft = (vmax.x - vmin.x) + (vmax.y - vmin.y) + (vmax.z - vmin.z) + 3;
@@ -206,63 +224,62 @@ float vsAxisExit(float o, float d, float invD, int boxMin, int boxEnd) {
   return ta;
 }
 
-// The coordinate along one axis of the voxel after the box, left at tExit through axis `exitAxis` (this axis
-// is `axis`): past the box's face on the exit axis, else the canonical coordinate, between the current voxel
-// v and the box's far face (the ray never moves back).
+// The coordinate along one axis (`axis`, not the exit axis `exitAxis`) of the voxel after the box, left at tExit:
+// the canonical coordinate at tExit, between the current voxel v and the box's far face (the ray never moves
+// back). floor(o + d*tExit) is within one voxel of it, and vsSettleCoord settles it every time: a shader
+// running rays as SIMD lanes pays for every branch any lane takes, and the settle is cheaper than deciding
+// whether it is needed.
 int vsAxisNext(float o, float d, float invD, int v, int boxMin, int boxEnd, float tExit, int axis, int exitAxis) {
-  if (axis == exitAxis) return d > 0.0f ? boxEnd : boxMin - 1;
-  if (d == 0.0f) return v;
   VS_PRECISE float p = o + d * tExit;
-  int c = int(clamp(floor(p), float(boxMin), float(boxEnd - 1)));
-  int from = d > 0.0f ? v : boxMin;
-  int to = d > 0.0f ? boxEnd - 1 : v;
-  c = clamp(c, from, to);
-  if (vsNearPlane(p, 1.0f + abs(o) + abs(d * tExit))) c = vsSettleCoord(o, d, invD, c, from, to, tExit, axis > exitAxis);
-  return c;
+  bool up = d > 0.0f;
+  int from = up ? v : boxMin;
+  int to = up ? boxEnd - 1 : v;
+  int c = clamp(int(clamp(floor(p), float(boxMin), float(boxEnd - 1))), from, to);
+  int settled = vsSettleCoord(o, d, invD, c, from, to, tExit, axis > exitAxis);
+  return d == 0.0f ? v : settled;
 }
 
-// Moves the walk past the empty box [boxMin, boxEnd) (voxel coordinates, end exclusive) that holds its
-// voxel: returns VS_WALK_CONTINUE on the box's next voxel in canonical order, or VS_WALK_MISS once the ray has
-// left the object or its span. Any empty box around the voxel leads to the same voxels.
-int vsWalkLeaveBox(VS_INOUT(ObjectWalk) w, ivec3 boxMin, ivec3 boxEnd) {
-  // The nearest face, the highest axis on ties (canonical order).
-  VS_PRECISE float tExit = VS_T_INFINITY;
-  int exitAxis = -1;
-  if (w.d.x != 0.0f) {
-    float tx = vsAxisExit(w.o.x, w.d.x, w.invD.x, boxMin.x, boxEnd.x);
-    if (tx <= tExit) {
-      tExit = tx;
-      exitAxis = 0;
-    }
-  }
-  if (w.d.y != 0.0f) {
-    float ty = vsAxisExit(w.o.y, w.d.y, w.invD.y, boxMin.y, boxEnd.y);
-    if (ty <= tExit) {
-      tExit = ty;
-      exitAxis = 1;
-    }
-  }
-  if (w.d.z != 0.0f) {
-    float tz = vsAxisExit(w.o.z, w.d.z, w.invD.z, boxMin.z, boxEnd.z);
-    if (tz <= tExit) {
-      tExit = tz;
-      exitAxis = 2;
-    }
-  }
-  if (exitAxis < 0 || tExit >= w.t1) return VS_WALK_MISS;
-  tExit = max(tExit, w.tEnter);
+// The voxel after the empty box [boxMin, boxEnd) (voxel coordinates, end exclusive) that holds voxel v, for
+// the ray o + t*d (1/d = invD, 0 where d is 0) which entered v at tEnter: `next` and the t at which the ray
+// enters it, `tNext`. Returns false when the ray leaves the object's voxels [vmin, vmax) or its span (t1)
+// first. Any empty box around v leads to the same voxels. Straight-line code: a shader running rays as SIMD
+// lanes pays for every branch any lane takes.
+bool vsBoxExit(vec3 o, vec3 d, vec3 invD, ivec3 v, float tEnter, float t1, ivec3 vmin, ivec3 vmax, ivec3 boxMin,
+               ivec3 boxEnd, VS_OUT(ivec3) next, VS_OUT(float) tNext) {
+  // The nearest face, the highest axis on ties (canonical order); an axis the ray runs parallel to has none.
+  float tx = d.x != 0.0f ? vsAxisExit(o.x, d.x, invD.x, boxMin.x, boxEnd.x) : VS_T_INFINITY;
+  float ty = d.y != 0.0f ? vsAxisExit(o.y, d.y, invD.y, boxMin.y, boxEnd.y) : VS_T_INFINITY;
+  float tz = d.z != 0.0f ? vsAxisExit(o.z, d.z, invD.z, boxMin.z, boxEnd.z) : VS_T_INFINITY;
+  VS_PRECISE float tExit = min(min(tx, ty), tz);
+  int exitAxis = tz == tExit ? 2 : (ty == tExit ? 1 : 0);
+  bool inSpan = tExit < t1;  // false past the span, or with no face at all
+  tExit = max(tExit, tEnter);
 
-  ivec3 next = ivec3(vsAxisNext(w.o.x, w.d.x, w.invD.x, w.v.x, boxMin.x, boxEnd.x, tExit, 0, exitAxis),
-                     vsAxisNext(w.o.y, w.d.y, w.invD.y, w.v.y, boxMin.y, boxEnd.y, tExit, 1, exitAxis),
-                     vsAxisNext(w.o.z, w.d.z, w.invD.z, w.v.z, boxMin.z, boxEnd.z, tExit, 2, exitAxis));
-  bvec3 outside = bvec3(next.x < w.obj.voxelMin.x || next.x >= w.obj.voxelMax.x,
-                        next.y < w.obj.voxelMin.y || next.y >= w.obj.voxelMax.y,
-                        next.z < w.obj.voxelMin.z || next.z >= w.obj.voxelMax.z);
-  if ((exitAxis == 0 && outside.x) || (exitAxis == 1 && outside.y) || (exitAxis == 2 && outside.z)) {
+  // Past the box's face on the exit axis; the canonical coordinate on the others.
+  int ex = d.x > 0.0f ? boxEnd.x : boxMin.x - 1;
+  int ey = d.y > 0.0f ? boxEnd.y : boxMin.y - 1;
+  int ez = d.z > 0.0f ? boxEnd.z : boxMin.z - 1;
+  next.x = exitAxis == 0 ? ex : vsAxisNext(o.x, d.x, invD.x, v.x, boxMin.x, boxEnd.x, tExit, 0, exitAxis);
+  next.y = exitAxis == 1 ? ey : vsAxisNext(o.y, d.y, invD.y, v.y, boxMin.y, boxEnd.y, tExit, 1, exitAxis);
+  next.z = exitAxis == 2 ? ez : vsAxisNext(o.z, d.z, invD.z, v.z, boxMin.z, boxEnd.z, tExit, 2, exitAxis);
+  tNext = tExit;
+  int exitCoord = exitAxis == 0 ? ex : (exitAxis == 1 ? ey : ez);
+  int exitMin = exitAxis == 0 ? vmin.x : (exitAxis == 1 ? vmin.y : vmin.z);
+  int exitMax = exitAxis == 0 ? vmax.x : (exitAxis == 1 ? vmax.y : vmax.z);
+  return inSpan && exitCoord >= exitMin && exitCoord < exitMax;
+}
+
+// Moves the walk past the empty box [boxMin, boxEnd) that holds its voxel (vsBoxExit): returns
+// VS_WALK_CONTINUE on the box's next voxel in canonical order, or VS_WALK_MISS once the ray has left the object
+// or its span.
+int vsWalkLeaveBox(VS_INOUT(ObjectWalk) w, ivec3 boxMin, ivec3 boxEnd) {
+  ivec3 next = ivec3(0);
+  float tNext = 0.0f;
+  if (!vsBoxExit(w.o, w.d, w.invD, w.v, w.tEnter, w.t1, ivec3(w.obj.voxelMin), ivec3(w.obj.voxelMax), boxMin,
+                 boxEnd, next, tNext))
     return VS_WALK_MISS;
-  }
   w.v = next;
-  w.tEnter = tExit;
+  w.tEnter = tNext;
   return VS_WALK_CONTINUE;
 }
 
@@ -281,34 +298,52 @@ int vsObjectWalkStep(VS_INOUT(ObjectWalk) w) {
 
 #ifdef VS_READ_BOX_CODE
 // The walk over a box table: per object, one code per brick (VS_BOX_* in trace_view.h; LaneTables::brickCodes
-// of compute/cpu/lane_tracer.h), laid out like the object's region table with 16^3 bricks per region. A partial
-// brick's cells are empty exactly where their occupancy byte is 0. One read per step instead of the chain from
+// of compute/cpu/lane_tracer.h), laid out like the object's region table with 16^3 bricks per region; a partial
+// brick's code is the table index of its occupancy words. A partial brick's cells are empty exactly where their
+// occupancy byte is 0. One read per step instead of the chain from
 // the region table down, and boxes far larger than aligned cells; the canonical order makes the result that of
 // vsObjectWalkStep bit for bit.
-int vsObjectWalkStepBoxes(VS_INOUT(ObjectWalk) w, int tableBase) {
-  if (w.stepsLeft <= 0) return VS_WALK_MISS;
-  w.stepsLeft -= 1;
-  ivec3 dims = ivec3(w.obj.regionDims) * 16;
-  ivec3 b = (w.v >> VS_BRICK_LOG2) - ivec3(w.obj.regionOrigin) * 16;
-  int code = VS_READ_BOX_CODE(tableBase + b.x + dims.x * (b.y + dims.y * b.z));
-  if (code == VS_BOX_FULL) return VS_WALK_HIT;
-  int log2 = 0;
-  int box = 0;
-  if (code >= 0) {
-    uint cellBit = vsChildBit(w.v, VS_CELL_LOG2);
-    uint voxelBit = cellBit * 8u + uint((w.v.x & 1) + 2 * (w.v.y & 1) + 4 * (w.v.z & 1));
-    uint word = VS_READ_OCCUPANCY(uint(code) + (voxelBit >> 5u));
-    if (((word >> (voxelBit & 31u)) & 1u) != 0u) return VS_WALK_HIT;
-    log2 = ((word >> ((cellBit & 3u) * 8u)) & 0xffu) == 0u ? VS_CELL_LOG2 : 0;
-  } else {
-    box = -1 - code;
-    log2 = box >> VS_BOX_LOG2_SHIFT;
+// The whole walk over the box table, as one loop with a single exit, so that a SIMD shader keeps no per-step
+// status: returns true on a hit (w.v, w.tEnter hold it). `table` is the index of the code of brick (0, 0, 0)
+// (it may lie outside the table), `rowStride` and `sliceStride` the code index steps along y and z.
+bool vsObjectWalkBoxes(VS_INOUT(ObjectWalk) w, int table, int rowStride, int sliceStride) {
+  ivec3 vmin = ivec3(w.obj.voxelMin);
+  ivec3 vmax = ivec3(w.obj.voxelMax);
+  ivec3 v = w.v;
+  float tEnter = w.tEnter;
+  int stepsLeft = w.stepsLeft;
+  bool hit = false;
+  for (;;) {
+    int code = VS_READ_BOX_CODE(table + (v.x >> VS_BRICK_LOG2) + rowStride * (v.y >> VS_BRICK_LOG2) +
+                                sliceStride * (v.z >> VS_BRICK_LOG2));
+    bool partial = code >= 0;
+    uint cellBit = vsChildBit(v, VS_CELL_LOG2);
+    uint voxelBit = cellBit * 8u + uint((v.x & 1) + 2 * (v.y & 1) + 4 * (v.z & 1));
+    uint word = uint(VS_READ_BOX_CODE(partial ? code + int(voxelBit >> 5u) : 0));
+    bool solid = code == VS_BOX_FULL || (partial && ((word >> (voxelBit & 31u)) & 1u) != 0u);
+    bool cellEmpty = ((word >> ((cellBit & 3u) * 8u)) & 0xffu) == 0u;
+    int box = partial || code == VS_BOX_FULL ? 0 : -1 - code;
+    int log2 = partial ? (cellEmpty ? VS_CELL_LOG2 : 0) : box >> VS_BOX_LOG2_SHIFT;
+    ivec3 cell = v >> log2;
+    const int bits = VS_BOX_EXTENT_BITS;
+    ivec3 below = ivec3(box, box >> (2 * bits), box >> (4 * bits)) & ivec3(VS_BOX_EXTENT_MASK);
+    ivec3 above = ivec3(box >> bits, box >> (3 * bits), box >> (5 * bits)) & ivec3(VS_BOX_EXTENT_MASK);
+    ivec3 next = v;
+    float tNext = tEnter;
+    bool stays = vsBoxExit(w.o, w.d, w.invD, v, tEnter, w.t1, vmin, vmax, (cell - below) << log2,
+                           (cell + above + ivec3(1)) << log2, next, tNext);
+    // Every step, the solid one included, counts against the bound.
+    if (stepsLeft <= 0 || solid || !stays) {
+      hit = stepsLeft > 0 && solid;
+      break;
+    }
+    v = next;
+    tEnter = tNext;
+    stepsLeft -= 1;
   }
-  ivec3 cell = w.v >> log2;
-  const int bits = VS_BOX_EXTENT_BITS;
-  ivec3 below = ivec3(box, box >> (2 * bits), box >> (4 * bits)) & ivec3(VS_BOX_EXTENT_MASK);
-  ivec3 above = ivec3(box >> bits, box >> (3 * bits), box >> (5 * bits)) & ivec3(VS_BOX_EXTENT_MASK);
-  return vsWalkLeaveBox(w, (cell - below) << log2, (cell + above + ivec3(1)) << log2);
+  w.v = v;
+  w.tEnter = tEnter;
+  return hit;
 }
 #endif
 
@@ -320,9 +355,15 @@ bool vsTraceObject(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax, VS_
   if (!vsObjectWalkBegin(objectIndex, o, d, tMin, tMax, w)) return false;
   int status = VS_WALK_CONTINUE;
 #ifdef VS_READ_BOX_CODE
-  int tableBase = VS_READ_BOX_CODE(objectIndex);  // the table starts with each object's first code, or -1
-  if (VS_BOX_TABLE && tableBase >= 0) {
-    while (status == VS_WALK_CONTINUE) status = vsObjectWalkStepBoxes(w, tableBase);
+  // VS_BOX_TABLE is a specialization constant: each pipeline holds one of the two loops, and the host binds a
+  // box table covering every object whenever it is set. (A loop left in the code costs llvmpipe one masked
+  // pass through its body even when no lane takes it.)
+  if (VS_BOX_TABLE) {
+    ivec3 dims = ivec3(w.obj.regionDims) * 16;  // bricks per axis
+    ivec3 origin = ivec3(w.obj.regionOrigin) * 16;
+    // The table starts with each object's first code.
+    int table = VS_READ_BOX_CODE(objectIndex) - (origin.x + dims.x * (origin.y + dims.y * origin.z));
+    status = vsObjectWalkBoxes(w, table, dims.x, dims.x * dims.y) ? VS_WALK_HIT : VS_WALK_MISS;
   } else
 #endif
   while (status == VS_WALK_CONTINUE) status = vsObjectWalkStep(w);
@@ -351,10 +392,10 @@ float vsBoxEntry(vec3 bmin, vec3 bmax, vec3 o, vec3 d, float tMin, float tMax) {
   float t0 = tMin;
   float t1 = tMax;
   float inv = 0.0f;
-  if (!vsClipAxis(o.x, d.x, bmin.x, bmax.x, false, t0, t1, inv)) return VS_T_INFINITY;
-  if (!vsClipAxis(o.y, d.y, bmin.y, bmax.y, false, t0, t1, inv)) return VS_T_INFINITY;
-  if (!vsClipAxis(o.z, d.z, bmin.z, bmax.z, false, t0, t1, inv)) return VS_T_INFINITY;
-  return t0 <= t1 ? t0 : VS_T_INFINITY;
+  bool inX = vsClipAxis(o.x, d.x, bmin.x, bmax.x, false, t0, t1, inv);
+  bool inY = vsClipAxis(o.y, d.y, bmin.y, bmax.y, false, t0, t1, inv);
+  bool inZ = vsClipAxis(o.z, d.z, bmin.z, bmax.z, false, t0, t1, inv);
+  return inX && inY && inZ && t0 <= t1 ? t0 : VS_T_INFINITY;
 }
 
 // Closest hit of the world ray o + t*d, t in [tMin, tMax], over every instance. On a hit, tHit is the entry t,
@@ -372,7 +413,7 @@ bool vsTraceClosest(vec3 o, vec3 d, float tMin, float tMax, VS_INOUT(float) tHit
   while (top > 0 && budget > 0u) {
     --budget;
     uint nodeIndex = stack[--top];
-    BvhNode node = nodes[nodeIndex];
+    BvhNode node = VS_READ_NODE(nodeIndex);
     if (vsBoxEntry(node.boundsMin, node.boundsMax, o, d, tMin, tBest) == VS_T_INFINITY) continue;
     if (node.count == 0u) {
       if (top + 2 <= VS_BVH_STACK_SIZE) {
@@ -382,13 +423,13 @@ bool vsTraceClosest(vec3 o, vec3 d, float tMin, float tMax, VS_INOUT(float) tHit
       continue;
     }
     for (uint i = 0u; i < node.count; ++i) {
-      uint instanceIndex = instanceIndices[node.rightOrFirst + i];
-      InstanceRecord inst = instances[instanceIndex];
-      vec3 lo = vsApplyAffine(inst.worldToBrick, o);
-      vec3 ld = vsApplyLinear(inst.worldToBrick, d);
+      uint instanceIndex = VS_READ_INSTANCE_INDEX(node.rightOrFirst + i);
+      Affine worldToBrick = VS_READ_WORLD_TO_BRICK(instanceIndex);
+      vec3 lo = vsApplyAffine(worldToBrick, o);
+      vec3 ld = vsApplyLinear(worldToBrick, d);
       float t = VS_T_INFINITY;
       ivec3 v = ivec3(0);
-      if (vsTraceObject(inst.info.x, lo, ld, tMin, tBest, t, v)) {
+      if (vsTraceObject(VS_READ_INSTANCE_OBJECT(instanceIndex), lo, ld, tMin, tBest, t, v)) {
         if (!hit || t < tBest || (t == tBest && instanceIndex < instanceHit)) {
           tBest = t;
           instanceHit = instanceIndex;
@@ -435,8 +476,8 @@ void vsViewRay(TraceView view, ivec2 texel, VS_OUT(vec3) o, VS_OUT(vec3) d, VS_O
 float vsTexelValue(TraceView view, vec3 o, vec3 d, float tMax, bool hit, float tHit, uint instanceHit,
                    ivec3 voxel) {
   if (!hit) return tMax;
-  if (view.info.w == VS_DEPTH_POINT_VOXEL_CENTER) {
-    vec3 c = vsApplyAffine(instances[instanceHit].brickToWorld, vec3(voxel) + vec3(0.5f));
+  if (VS_VIEW_DEPTH_AT_CENTER(view)) {
+    vec3 c = vsApplyAffine(VS_READ_BRICK_TO_WORLD(instanceHit), vec3(voxel) + vec3(0.5f));
     VS_PRECISE vec3 rel = c - o;
     if (view.info.z == VS_ENCODING_NDC_DEPTH) {
       VS_PRECISE float dd = d.x * d.x + d.y * d.y + d.z * d.z;

@@ -97,6 +97,8 @@ VulkanDeviceInfo describe(VkPhysicalDevice pd, std::uint32_t index) {
   info.driverVersion = p.driverVersion;
   std::copy(std::begin(p.pipelineCacheUUID), std::end(p.pipelineCacheUUID), info.pipelineCacheUuid.begin());
   info.maxStorageBufferRange = p.limits.maxStorageBufferRange;
+  info.maxTexelBufferElements = p.limits.maxTexelBufferElements;
+  info.minUniformBufferOffsetAlignment = std::max<std::uint64_t>(1, p.limits.minUniformBufferOffsetAlignment);
   info.maxMemoryAllocationSize = m3.maxMemoryAllocationSize;
   info.maxPerStageStorageBuffers = p.limits.maxPerStageDescriptorStorageBuffers;
   info.maxImageDimension2D = p.limits.maxImageDimension2D;
@@ -360,6 +362,16 @@ vk::Buffer VulkanContext::createDeviceBuffer(VkDeviceSize size, VkBufferUsageFla
 vk::Buffer VulkanContext::createHostBuffer(VkDeviceSize size, VkBufferUsageFlags usage) {
   return createBuffer(size, usage, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
                       VK_MEMORY_PROPERTY_HOST_CACHED_BIT, true);
+}
+
+vk::UniqueBufferView VulkanContext::createTexelView(const vk::Buffer& buffer, VkFormat format) {
+  auto ci = vk::make<VkBufferViewCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO);
+  ci.buffer = buffer.get();
+  ci.format = format;
+  ci.range = VK_WHOLE_SIZE;
+  VkBufferView view = VK_NULL_HANDLE;
+  vk::check(vkCreateBufferView(device_.get(), &ci, nullptr, &view), "vkCreateBufferView");
+  return vk::UniqueBufferView(device_.get(), view);
 }
 
 vk::Image VulkanContext::createStorageImage(std::uint32_t width, std::uint32_t height, std::uint32_t layers) {

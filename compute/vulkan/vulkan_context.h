@@ -31,6 +31,8 @@ struct VulkanDeviceInfo {
   std::uint32_t driverVersion = 0;
   std::array<std::uint8_t, VK_UUID_SIZE> pipelineCacheUuid{};
   std::uint64_t maxStorageBufferRange = 0;
+  std::uint64_t maxTexelBufferElements = 0;
+  std::uint64_t minUniformBufferOffsetAlignment = 1;
   std::uint64_t maxMemoryAllocationSize = 0;
   std::uint64_t deviceLocalBytes = 0;  // size of the largest device-local heap
   std::uint32_t maxPerStageStorageBuffers = 0;
@@ -84,6 +86,9 @@ class VulkanContext {
   // Buffer creation. Preconditions: size > 0. Throws vs::Error(Runtime) when no memory type fits.
   vk::Buffer createDeviceBuffer(VkDeviceSize size, VkBufferUsageFlags usage);
   vk::Buffer createHostBuffer(VkDeviceSize size, VkBufferUsageFlags usage);  // host-visible, coherent, mapped
+  // A texel view of the whole buffer. Precondition: it was created with a texel-buffer usage and its size is a
+  // multiple of the format's texel size, at most maxTexelBufferElements texels.
+  vk::UniqueBufferView createTexelView(const vk::Buffer& buffer, VkFormat format);
   // An R32F 2D-array storage image in VK_IMAGE_LAYOUT_GENERAL. Preconditions: width, height, layers > 0.
   vk::Image createStorageImage(std::uint32_t width, std::uint32_t height, std::uint32_t layers);
 

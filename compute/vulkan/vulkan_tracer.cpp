@@ -6,6 +6,7 @@
 #include <bit>
 #include <chrono>
 #include <cstring>
+#include <limits>
 
 #include "compute/cpu/lane_tracer.h"
 #include "compute/vulkan/pipeline_cache.h"
@@ -23,11 +24,23 @@ constexpr const char* kSplitNames[kSplitArrayCount] = {"regionTable", "regions",
 // Mirrors the shader's TracePush block.
 struct TracePush {
   std::uint32_t nodeCount;
-  std::uint32_t layerCount;
   std::uint32_t shifts[kSplitArrayCount];
-  std::uint32_t layerBase;
+  std::uint32_t layer;
 };
-static_assert(sizeof(TracePush) == 32);
+static_assert(sizeof(TracePush) == 28);
+
+// The per-ray records, bound as texel buffers (see shadow_trace.comp): name, texel format, texels per element.
+struct RecordArray {
+  const char* name;
+  VkFormat format;
+  std::uint32_t texelsPerElement;
+};
+constexpr RecordArray kRecordArrays[4] = {
+    {"objects", VK_FORMAT_R32G32B32A32_UINT, gpu::VS_OBJECT_TEXELS},
+    {"instances", VK_FORMAT_R32G32B32A32_UINT, gpu::VS_INSTANCE_TEXELS},
+    {"nodes", VK_FORMAT_R32G32B32A32_UINT, gpu::VS_NODE_TEXELS},
+    {"instanceIndices", VK_FORMAT_R32_UINT, 1},
+};
 
 std::string mib(std::uint64_t bytes) {
   char buf[32];
@@ -52,11 +65,11 @@ struct VulkanTracer::Impl {
   VulkanOptions options;
   VulkanContext context;
   std::unique_ptr<DiskPipelineCache> cache;
-  vk::ComputePipeline pipeline;   // pipeline.pipeline: every array in one binding
+  vk::ComputePipeline pipeline;   // pipeline.pipeline: variant (no split, options.boxTable, entry depth)
   vk::UniqueShaderModule module;
-  // The other variants (arrays over several bindings, walk with or without the box table), created on first
-  // need; index split * 2 + boxes. pipeline.pipeline is variant (false, options.boxTable).
-  std::array<vk::UniquePipeline, 4> variants;
+  // The other variants (arrays over several bindings or not, walk with or without the box table, depth at the
+  // entry point or the voxel centre), created on first need; see variantIndex.
+  std::array<vk::UniquePipeline, 8> variants;
   vk::UniqueDescriptorPool descriptorPool;
   VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
   vk::UniqueQueryPool queryPool;
@@ -64,10 +77,14 @@ struct VulkanTracer::Impl {
   PipelineStats pipelineStats;
 
   std::array<DeviceArray, kSplitArrayCount> split;
-  std::array<DeviceArray, 4> whole;  // objects, instances, nodes, instanceIndices
+  std::array<DeviceArray, 4> whole;  // kRecordArrays: objects, instances, nodes, instanceIndices
+  std::array<vk::UniqueBufferView, 4> wholeViews;
   DeviceArray boxCodes;              // the box table; empty when the walk reads the hierarchy
+  vk::UniqueBufferView boxCodesView;
   bool boxTableUploaded = false;
-  vk::Buffer placeholder;
+  vk::Buffer placeholder;  // bound where an array is empty or unused, through a view of the format needed
+  vk::UniqueBufferView placeholderSint, placeholderUint, placeholderUint4;
+  VkDeviceSize viewStride = 0;  // bytes between views in viewBuffer: the dynamic-offset alignment
   std::uint32_t nodeCount = 0;
   bool uploaded = false;
 
@@ -78,13 +95,20 @@ struct VulkanTracer::Impl {
   explicit Impl(const VulkanOptions& o)
       : options(o), context(VulkanContextOptions{o.deviceIndex, o.deviceName, o.validation}) {
     const VulkanDeviceInfo& info = context.info();
-    std::uint32_t needed = kSplitArrayCount * kMaxBuffersPerArray + 6;
+    std::uint32_t needed = kSplitArrayCount * kMaxBuffersPerArray;
     if (info.maxPerStageStorageBuffers < needed)
       throwRuntime("Vulkan device " + info.name + " allows " + std::to_string(info.maxPerStageStorageBuffers) +
                    " storage buffers per shader stage (maxPerStageDescriptorStorageBuffers); the trace shader needs " +
                    std::to_string(needed));
     createPipeline();
-    placeholder = context.createDeviceBuffer(16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+    placeholder = context.createDeviceBuffer(16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                                     VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
+                                                     VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+    placeholderSint = context.createTexelView(placeholder, VK_FORMAT_R32_SINT);
+    placeholderUint = context.createTexelView(placeholder, VK_FORMAT_R32_UINT);
+    placeholderUint4 = context.createTexelView(placeholder, VK_FORMAT_R32G32B32A32_UINT);
+    const VkDeviceSize align = info.minUniformBufferOffsetAlignment;
+    viewStride = (sizeof(gpu::TraceView) + align - 1) / align * align;
     ensureQueries(2);
   }
 
@@ -106,7 +130,10 @@ struct VulkanTracer::Impl {
     for (std::uint32_t b = 0; b <= kBoxCodesBinding; ++b) {
       VkDescriptorSetLayoutBinding lb{};
       lb.binding = b;
-      lb.descriptorType = b == kImageBinding ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      lb.descriptorType = b < kSplitBindings     ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
+                          : b == kImageBinding ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE
+                          : b == kViewsBinding ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC
+                                               : VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
       lb.descriptorCount = b < kSplitBindings ? kMaxBuffersPerArray : 1;
       lb.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
       bindings.push_back(lb);
@@ -132,16 +159,18 @@ struct VulkanTracer::Impl {
     cache = std::make_unique<DiskPipelineCache>(context, dir);
     module = context.createShaderModule(shadow_trace, sizeof(shadow_trace));
     auto t0 = std::chrono::steady_clock::now();
-    pipeline.pipeline = makePipeline(false, options.boxTable);
+    pipeline.pipeline = makePipeline(false, options.boxTable, false);
     pipelineStats.createMs = msSince(t0);
     pipelineStats.warmCache = cache->warm();
     pipelineStats.cacheFile = cache->file();
     pipelineStats.cacheSaved = cache->save();
     pipelineStats.cacheError = cache->lastError();
 
-    std::array<VkDescriptorPoolSize, 2> sizes{{
-        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kSplitBindings * kMaxBuffersPerArray + 6},
+    std::array<VkDescriptorPoolSize, 4> sizes{{
+        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kSplitBindings * kMaxBuffersPerArray},
         {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1},
+        {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 5},
+        {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC, 1},
     }};
     auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
     dp.maxSets = 1;
@@ -157,12 +186,14 @@ struct VulkanTracer::Impl {
     vk::check(vkAllocateDescriptorSets(dev, &ai, &descriptorSet), "vkAllocateDescriptorSets");
   }
 
-  // The trace pipeline with the shader's specialization constants VS_SPLIT_BINDINGS = `split` and
-  // VS_BOX_TABLE = `boxes`.
-  vk::UniquePipeline makePipeline(bool split, bool boxes) {
-    VkBool32 values[2] = {split ? VK_TRUE : VK_FALSE, boxes ? VK_TRUE : VK_FALSE};
-    VkSpecializationMapEntry entries[2] = {{0, 0, sizeof(VkBool32)}, {1, sizeof(VkBool32), sizeof(VkBool32)}};
-    VkSpecializationInfo spec{2, entries, sizeof values, values};
+  // The trace pipeline with the shader's specialization constants VS_SPLIT_BINDINGS = `split`, VS_BOX_TABLE =
+  // `boxes` and VS_DEPTH_AT_CENTER = `centerDepth`.
+  vk::UniquePipeline makePipeline(bool split, bool boxes, bool centerDepth) {
+    VkBool32 values[3] = {split ? VK_TRUE : VK_FALSE, boxes ? VK_TRUE : VK_FALSE, centerDepth ? VK_TRUE : VK_FALSE};
+    VkSpecializationMapEntry entries[3] = {{0, 0, sizeof(VkBool32)},
+                                           {1, sizeof(VkBool32), sizeof(VkBool32)},
+                                           {2, 2 * sizeof(VkBool32), sizeof(VkBool32)}};
+    VkSpecializationInfo spec{3, entries, sizeof values, values};
     auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
     ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
@@ -191,8 +222,9 @@ struct VulkanTracer::Impl {
 
   // Uploads one array, reusing its buffers when the element count (and so the split) is unchanged.
   void uploadArray(DeviceArray& dst, const void* data, std::uint64_t elements, std::uint64_t elementSize,
-                   std::uint64_t elementsPerBuffer, std::uint32_t shift) {
-    const auto usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+                   std::uint64_t elementsPerBuffer, std::uint32_t shift,
+                   VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT) {
+    usage |= VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     bool reuse = dst.elements == elements && dst.shift == shift && !dst.buffers.empty();
     if (!reuse) {
       dst.buffers.clear();
@@ -209,22 +241,36 @@ struct VulkanTracer::Impl {
   }
 
   // The box table of vsObjectWalkStepBoxes from the CPU fast path's brick codes: each object's first code
-  // (offset past this header), then the codes. Empty when the tables cannot be built for the scene (too large,
-  // or cells whose mask differs from their occupancy byte) or do not fit one binding: the walk then reads the
-  // hierarchy.
-  static std::vector<std::int32_t> boxTable(const SceneData& scene, std::uint64_t bindingLimit) {
+  // (offset past this header), then the codes, then a copy of the occupancy words, to which the codes of
+  // partial bricks point, so that a step reads this one texel buffer only. Empty when the tables cannot be
+  // built for the scene (too large, or cells whose mask differs from their occupancy byte) or exceed
+  // `maxElements` texels: the walk then reads the hierarchy.
+  static std::vector<std::int32_t> boxTable(const SceneData& scene, std::uint64_t maxElements) {
     LaneTables tables;
     if (!buildLaneTables(scene, tables) || tables.brickCodes.empty()) return {};
-    std::vector<std::int32_t> table(scene.objects.size());
-    for (std::size_t o = 0; o < table.size(); ++o) table[o] = std::int32_t(table.size()) + tables.objectBrickBase[o];
-    table.insert(table.end(), tables.brickCodes.begin(), tables.brickCodes.end());
-    if (table.size() * sizeof(std::int32_t) > bindingLimit) return {};
+    const std::uint64_t heads = scene.objects.size();
+    const std::uint64_t occupancyStart = heads + tables.brickCodes.size();
+    const std::uint64_t total = occupancyStart + scene.occupancy.size();
+    if (total > maxElements || total > std::uint64_t(std::numeric_limits<std::int32_t>::max())) return {};
+    std::vector<std::int32_t> table;
+    table.reserve(total);
+    for (std::size_t o = 0; o < heads; ++o) table.push_back(std::int32_t(heads) + tables.objectBrickBase[o]);
+    for (std::int32_t code : tables.brickCodes)
+      table.push_back(code >= 0 && code != kLaneFullBrick ? code + std::int32_t(occupancyStart) : code);
+    for (std::uint32_t word : scene.occupancy) table.push_back(std::bit_cast<std::int32_t>(word));
     return table;
+  }
+
+  // The most texels one texel-buffer binding may hold: the device limit, or the test override in bytes.
+  std::uint64_t texelLimit() const {
+    std::uint64_t limit = context.info().maxTexelBufferElements;
+    if (options.maxBindingBytes > 0) limit = std::min(limit, options.maxBindingBytes / sizeof(std::int32_t));
+    return limit;
   }
 
   void upload(const SceneData& scene) {
     std::vector<std::int32_t> table;
-    if (options.boxTable) table = boxTable(scene, bindingLimit());
+    if (options.boxTable) table = boxTable(scene, texelLimit());
     upload(SceneArrays::from(scene), table);
   }
 
@@ -249,7 +295,6 @@ struct VulkanTracer::Impl {
         {s.nodes.data(), s.nodes.size(), sizeof(gpu::BvhNode)},
         {s.instanceIndices.data(), s.instanceIndices.size(), sizeof(std::uint32_t)},
     }};
-    const char* wholeNames[4] = {"objects", "instances", "nodes", "instanceIndices"};
 
     // Refuse what cannot fit before allocating anything.
     std::uint64_t total = 0;
@@ -270,13 +315,13 @@ struct VulkanTracer::Impl {
                      mib(limit) + ", maxStorageBufferRange) on " + info.name);
     }
     for (int a = 0; a < 4; ++a) {
-      std::uint64_t bytes = wholeSrc[a].elements * wholeSrc[a].size;
-      total += bytes;
+      total += wholeSrc[a].elements * wholeSrc[a].size;
       // These arrays are bound whole: only the device limit applies, not the splitting threshold.
-      if (bytes > info.maxStorageBufferRange)
-        throwRuntime("scene array '" + std::string(wholeNames[a]) + "' needs " + mib(bytes) +
-                     ", more than the device's storage-buffer limit (" + mib(info.maxStorageBufferRange) +
-                     ", maxStorageBufferRange) on " + info.name);
+      std::uint64_t texels = wholeSrc[a].elements * kRecordArrays[a].texelsPerElement;
+      if (texels > info.maxTexelBufferElements)
+        throwRuntime("scene array '" + std::string(kRecordArrays[a].name) + "' needs " + std::to_string(texels) +
+                     " texels, more than the device's texel-buffer limit (" +
+                     std::to_string(info.maxTexelBufferElements) + ", maxTexelBufferElements) on " + info.name);
     }
     total += std::uint64_t(table.size()) * sizeof(std::int32_t);
     if (info.deviceLocalBytes > 0 && total > info.deviceLocalBytes)
@@ -285,13 +330,23 @@ struct VulkanTracer::Impl {
 
     for (int a = 0; a < kSplitArrayCount; ++a)
       uploadArray(split[a], splitSrc[a].data, splitSrc[a].elements, splitSrc[a].size, perBuffer[a], shifts[a]);
-    for (int a = 0; a < 4; ++a)
+    for (int a = 0; a < 4; ++a) {
+      bool reuse = whole[a].elements == wholeSrc[a].elements && wholeViews[a];
       uploadArray(whole[a], wholeSrc[a].data, wholeSrc[a].elements, wholeSrc[a].size,
-                  std::max<std::uint64_t>(wholeSrc[a].elements, 1), 0);
+                  std::max<std::uint64_t>(wholeSrc[a].elements, 1), 0, VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT);
+      if (whole[a].buffers.empty())
+        wholeViews[a].reset();
+      else if (!reuse)
+        wholeViews[a] = context.createTexelView(whole[a].buffers[0], kRecordArrays[a].format);
+    }
     if (table.empty()) {
+      boxCodesView.reset();
       boxCodes = DeviceArray{};
     } else {
-      uploadArray(boxCodes, table.data(), table.size(), sizeof(std::int32_t), table.size(), 0);
+      bool reuse = boxCodes.elements == table.size();
+      uploadArray(boxCodes, table.data(), table.size(), sizeof(std::int32_t), table.size(), 0,
+                  VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT);
+      if (!reuse || !boxCodesView) boxCodesView = context.createTexelView(boxCodes.buffers[0], VK_FORMAT_R32_SINT);
     }
     boxTableUploaded = !table.empty();
     nodeCount = static_cast<std::uint32_t>(s.nodes.size());
@@ -300,7 +355,7 @@ struct VulkanTracer::Impl {
 
   void writeDescriptors() {
     std::vector<VkDescriptorBufferInfo> infos;
-    infos.reserve(kSplitBindings * kMaxBuffersPerArray + 6);
+    infos.reserve(kSplitBindings * kMaxBuffersPerArray + 1);
     std::vector<VkWriteDescriptorSet> writes;
     auto bufferInfo = [&](const vk::Buffer* b) {
       const vk::Buffer& use = b ? *b : placeholder;
@@ -322,18 +377,31 @@ struct VulkanTracer::Impl {
       w.pBufferInfo = first;
       writes.push_back(w);
     }
-    auto first = [](const DeviceArray& a) { return a.buffers.empty() ? nullptr : &a.buffers[0]; };
-    const std::pair<std::uint32_t, const vk::Buffer*> singles[6] = {
-        {kObjectsBinding, first(whole[0])},   {kInstancesBinding, first(whole[1])}, {kNodesBinding, first(whole[2])},
-        {kIndicesBinding, first(whole[3])},   {kViewsBinding, &viewBuffer},         {kBoxCodesBinding, first(boxCodes)},
+    infos.push_back({viewBuffer.get(), 0, sizeof(gpu::TraceView)});
+    auto vw = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+    vw.dstSet = descriptorSet;
+    vw.dstBinding = kViewsBinding;
+    vw.descriptorCount = 1;
+    vw.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC;
+    vw.pBufferInfo = &infos.back();
+    writes.push_back(vw);
+    auto orPlaceholder = [](const vk::UniqueBufferView& view, const vk::UniqueBufferView& placeholderView) {
+      return view ? view.get() : placeholderView.get();
     };
-    for (const auto& [binding, buffer] : singles) {
+    const VkBufferView texelViews[5] = {
+        orPlaceholder(wholeViews[0], placeholderUint4), orPlaceholder(wholeViews[1], placeholderUint4),
+        orPlaceholder(wholeViews[2], placeholderUint4), orPlaceholder(wholeViews[3], placeholderUint),
+        orPlaceholder(boxCodesView, placeholderSint),
+    };
+    const std::uint32_t texelBindings[5] = {kObjectsBinding, kInstancesBinding, kNodesBinding, kIndicesBinding,
+                                            kBoxCodesBinding};
+    for (int t = 0; t < 5; ++t) {
       auto w = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
       w.dstSet = descriptorSet;
-      w.dstBinding = binding;
+      w.dstBinding = texelBindings[t];
       w.descriptorCount = 1;
-      w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-      w.pBufferInfo = bufferInfo(buffer);
+      w.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+      w.pTexelBufferView = &texelViews[t];
       writes.push_back(w);
     }
     VkDescriptorImageInfo imageInfo{VK_NULL_HANDLE, image.view.get(), VK_IMAGE_LAYOUT_GENERAL};
@@ -392,10 +460,11 @@ struct VulkanTracer::Impl {
     if (!image.image || image.extent.width < maxW || image.extent.height < maxH || image.layers < layerCount)
       image = context.createStorageImage(std::max(maxW, image.extent.width), std::max(maxH, image.extent.height),
                                          std::max(layerCount, image.layers));
-    VkDeviceSize viewBytes = views.size_bytes();
+    VkDeviceSize viewBytes = views.size() * viewStride;
     if (!viewBuffer.buffer || viewBuffer.size < viewBytes)
-      viewBuffer = context.createHostBuffer(viewBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-    std::memcpy(viewBuffer.mapped, views.data(), viewBytes);
+      viewBuffer = context.createHostBuffer(viewBytes, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+    for (std::size_t i = 0; i < views.size(); ++i)
+      std::memcpy(static_cast<std::uint8_t*>(viewBuffer.mapped) + i * viewStride, &views[i], sizeof(gpu::TraceView));
     VkDeviceSize readbackBytes = readbackTexels * sizeof(float);
     if (!readback.buffer || readback.size < readbackBytes)
       readback = context.createHostBuffer(readbackBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
@@ -417,18 +486,23 @@ struct VulkanTracer::Impl {
 
     ensureQueries(layerCount + 1);
     const bool useSplit = splitBindings();
-    VkPipeline tracePipeline = pipeline.pipeline.get();
-    if (useSplit || boxTableUploaded != options.boxTable) {
-      vk::UniquePipeline& variant = variants[(useSplit ? 2 : 0) + (boxTableUploaded ? 1 : 0)];
+    // Each view's pipeline: the depth point is a specialization constant, so the other one's code is not run.
+    std::vector<VkPipeline> viewPipelines(layerCount);
+    for (std::uint32_t i = 0; i < layerCount; ++i) {
+      bool centerDepth = views[i].info.w == gpu::VS_DEPTH_POINT_VOXEL_CENTER;
+      if (!useSplit && boxTableUploaded == options.boxTable && !centerDepth) {
+        viewPipelines[i] = pipeline.pipeline.get();
+        continue;
+      }
+      vk::UniquePipeline& variant = variants[(useSplit ? 4 : 0) + (boxTableUploaded ? 2 : 0) + (centerDepth ? 1 : 0)];
       if (!variant) {
-        variant = makePipeline(useSplit, boxTableUploaded);
+        variant = makePipeline(useSplit, boxTableUploaded, centerDepth);
         cache->save();
       }
-      tracePipeline = variant.get();
+      viewPipelines[i] = variant.get();
     }
     TracePush push{};
     push.nodeCount = nodeCount;
-    push.layerCount = layerCount;
     for (int a = 0; a < kSplitArrayCount; ++a) push.shifts[a] = split[a].shift;
 
     context.submitAndWait([&](VkCommandBuffer cmd) {
@@ -443,9 +517,7 @@ struct VulkanTracer::Impl {
         vkCmdResetQueryPool(cmd, queryPool.get(), 0, queries);
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queryPool.get(), 0);
       }
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, tracePipeline);
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet, 0,
-                              nullptr);
+      VkPipeline bound = VK_NULL_HANDLE;
       // One dispatch per layer, sized to its own rectangle: no workgroups wasted on a batch's largest view,
       // and a timestamp after each gives per-view GPU times (exact where dispatches run one after another,
       // as on lavapipe; on other devices neighbouring dispatches may overlap a little).
@@ -453,7 +525,14 @@ struct VulkanTracer::Impl {
         const glm::ivec4& r = views[i].rect;
         std::uint32_t gx = (std::uint32_t(r.z - r.x) + 7) / 8, gy = (std::uint32_t(r.w - r.y) + 7) / 8;
         if (gx > 0 && gy > 0) {
-          push.layerBase = i;
+          if (viewPipelines[i] != bound) {
+            bound = viewPipelines[i];
+            vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, bound);
+          }
+          auto viewOffset = static_cast<std::uint32_t>(i * viewStride);
+          vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet,
+                                  1, &viewOffset);
+          push.layer = i;
           vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
           vkCmdDispatch(cmd, gx, gy, 1);
         }
