@@ -153,6 +153,14 @@ Bvh Bvh::build(std::span<const Aabb> boxes) {
   bvh.nodes_.reserve(2 * bvh.indices_.size());
   Builder builder{boxes, std::move(centroids), bvh.indices_, bvh.nodes_};
   builder.build(0, std::uint32_t(bvh.indices_.size()), 0);
+  // A left child (the next node) escapes to its right sibling; a right child where its parent does.
+  bvh.escapes_.assign(bvh.nodes_.size(), std::uint32_t(bvh.nodes_.size()));
+  for (std::size_t n = 0; n < bvh.nodes_.size(); ++n) {
+    const gpu::BvhNode& node = bvh.nodes_[n];
+    if (node.count > 0) continue;
+    bvh.escapes_[n + 1] = node.rightOrFirst;
+    bvh.escapes_[node.rightOrFirst] = bvh.escapes_[n];
+  }
   bvh.builtSahCost_ = bvh.sahCost();
   return bvh;
 }

@@ -56,10 +56,14 @@ class Bvh {
   std::span<const gpu::BvhNode> nodes() const { return nodes_; }
   // Leaf entries index this list, which holds instance indices.
   std::span<const std::uint32_t> instanceIndices() const { return indices_; }
+  // Per node, the first node after its subtree (the node count after the last): where a depth-first walk
+  // goes when it skips or finishes the node, so a traversal needs no stack. Fixed by build(); refit() keeps it.
+  std::span<const std::uint32_t> nodeEscapes() const { return escapes_; }
 
  private:
   std::vector<gpu::BvhNode> nodes_;
   std::vector<std::uint32_t> indices_;
+  std::vector<std::uint32_t> escapes_;
   float builtSahCost_ = 0.0f;
   std::size_t boxCount_ = 0;
   std::vector<std::uint8_t> inTree_;  // per box: non-empty at build

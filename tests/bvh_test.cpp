@@ -41,6 +41,19 @@ void checkTree(const Bvh& bvh, const std::vector<Aabb>& boxes, bool tight) {
     return;
   }
   ASSERT_FALSE(nodes.empty());
+  // Each node's subtree is the node range [n, escape): a leaf's is itself, an interior node's ends with its right
+  // child's. The stackless traversal (compute/shared/traverse.h) jumps there when it skips or finishes a node.
+  auto escapes = bvh.nodeEscapes();
+  ASSERT_EQ(escapes.size(), nodes.size());
+  for (std::uint32_t n = 0; n < nodes.size(); ++n) {
+    std::uint32_t end = n;
+    while (nodes[end].count == 0) {
+      ASSERT_GT(nodes[end].rightOrFirst, end);
+      ASSERT_LT(nodes[end].rightOrFirst, nodes.size());
+      end = nodes[end].rightOrFirst;
+    }
+    ASSERT_EQ(escapes[n], end + 1) << "node " << n;
+  }
   std::vector<int> seen(boxes.size(), 0);
   std::vector<int> visited(nodes.size(), 0);
   std::vector<std::pair<std::uint32_t, int>> stack{{0u, 0}};

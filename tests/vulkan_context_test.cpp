@@ -31,9 +31,10 @@ struct TinyScene {
   std::vector<vs::gpu::InstanceRecord> instances;
   std::vector<vs::gpu::BvhNode> nodes;
   std::vector<std::uint32_t> instanceIndices{0};
+  std::vector<std::uint32_t> nodeEscapes{1};  // one leaf: its subtree ends at node 1
 
   vs::SceneArrays arrays() const {
-    return {regionTable, regions, sectors, bricks, occupancy, objects, instances, nodes, instanceIndices};
+    return {regionTable, regions, sectors, bricks, occupancy, objects, instances, nodes, instanceIndices, nodeEscapes};
   }
 };
 

@@ -21,6 +21,7 @@ struct SceneArrays {
   const InstanceRecord* instances = nullptr;
   const BvhNode* nodes = nullptr;
   const uint* instanceIndices = nullptr;
+  const uint* nodeEscapes = nullptr;
   uint nodeCount = 0;
 
   explicit SceneArrays(const vs::SceneData& scene)
@@ -33,6 +34,7 @@ struct SceneArrays {
         instances(scene.instances.data()),
         nodes(scene.bvh.nodes().data()),
         instanceIndices(scene.bvh.instanceIndices().data()),
+        nodeEscapes(scene.bvh.nodeEscapes().data()),
         nodeCount(static_cast<uint>(scene.bvh.nodes().size())) {}
 
 #include "compute/shared/traverse.h"

@@ -28,11 +28,13 @@ layout(std430, set = 0, binding = 1) readonly buffer RegionChunk { Region data[]
 layout(std430, set = 0, binding = 2) readonly buffer SectorChunk { Sector data[]; } sectorChunks[VS_MAX_CHUNKS];
 layout(std430, set = 0, binding = 3) readonly buffer BrickChunk { Brick data[]; } brickChunks[VS_MAX_CHUNKS];
 layout(std430, set = 0, binding = 4) readonly buffer OccupancyChunk { uint data[]; } occupancyChunks[VS_MAX_CHUNKS];
-// Records as RGBA32UI texels (the VS_*_TEXELS of the layout headers), instance indices as R32UI.
+// Records as RGBA32UI texels (the VS_*_TEXELS of the layout headers), instance indices and node escapes
+// (Bvh::nodeEscapes) as R32UI.
 layout(set = 0, binding = 5) uniform usamplerBuffer objectTexels;
 layout(set = 0, binding = 6) uniform usamplerBuffer instanceTexels;
 layout(set = 0, binding = 7) uniform usamplerBuffer nodeTexels;
 layout(set = 0, binding = 8) uniform usamplerBuffer instanceIndexTexels;
+layout(set = 0, binding = 12) uniform usamplerBuffer nodeEscapeTexels;
 // The layer's view, bound at a dynamic offset per dispatch. Every TraceView member is 16-byte aligned, so its
 // std140 layout is its std430 one.
 layout(std140, set = 0, binding = 9) uniform ViewBlock { TraceView currentView; };
@@ -115,6 +117,7 @@ Affine vsReadAffine(int t) {
 #define VS_READ_OBJECT(i) vsReadObject(i)
 #define VS_READ_NODE(i) vsReadNode(i)
 #define VS_READ_INSTANCE_INDEX(i) texelFetch(instanceIndexTexels, int(i)).x
+#define VS_READ_NODE_ESCAPE(i) texelFetch(nodeEscapeTexels, int(i)).x
 #define VS_READ_INSTANCE_OBJECT(i) texelFetch(instanceTexels, int((i) * VS_INSTANCE_TEXELS + VS_INSTANCE_INFO_TEXEL)).x
 #define VS_READ_WORLD_TO_BRICK(i) vsReadAffine(int((i) * VS_INSTANCE_TEXELS))
 #define VS_READ_BRICK_TO_WORLD(i) vsReadAffine(int((i) * VS_INSTANCE_TEXELS + VS_INSTANCE_BRICK_TO_WORLD_TEXEL))

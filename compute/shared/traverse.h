@@ -2,8 +2,9 @@
 //
 // This is a *body*: it is included where the scene arrays are in scope under these names:
 //   regionTable (uint), regions (Region), sectors (Sector), bricks (Brick), occupancy (uint),
-//   objects (ObjectRecord), instances (InstanceRecord), nodes (BvhNode), instanceIndices (uint), nodeCount (uint).
-// GLSL declares them as storage buffers (and nodeCount as a push constant); C++ includes this body inside a
+//   objects (ObjectRecord), instances (InstanceRecord), nodes (BvhNode), instanceIndices (uint),
+//   nodeEscapes (uint, Bvh::nodeEscapes), nodeCount (uint).
+// GLSL reads them from storage and texel buffers (and nodeCount from a push constant); C++ includes this body inside a
 // struct whose members carry those names (compute/cpu/scene_arrays.h). The same arithmetic, in the same order,
 // runs on both sides, so that GPU and CPU agree texel for texel (DESIGN.md §6).
 //
@@ -51,6 +52,9 @@
 #endif
 #ifndef VS_READ_INSTANCE_INDEX
 #define VS_READ_INSTANCE_INDEX(i) instanceIndices[i]
+#endif
+#ifndef VS_READ_NODE_ESCAPE
+#define VS_READ_NODE_ESCAPE(i) nodeEscapes[i]
 #endif
 #ifndef VS_READ_INSTANCE_OBJECT
 #define VS_READ_INSTANCE_OBJECT(i) instances[i].info.x
@@ -398,46 +402,52 @@ float vsBoxEntry(vec3 bmin, vec3 bmax, vec3 o, vec3 d, float tMin, float tMax) {
   return inX && inY && inZ && t0 <= t1 ? t0 : VS_T_INFINITY;
 }
 
+// Advances a depth-first walk of the instance BVH to the next leaf entry whose leaf box the ray o + t*d enters
+// within [tMin, tBest]: `node` is the next node to visit (nodeCount when none is left), [entry, entryEnd) the
+// current leaf's entries not yet taken. Returns false when no entry is left. Stackless (Bvh::nodeEscapes),
+// so a SIMD shader keeps no per-lane stack array.
+bool vsNextLeafEntry(vec3 o, vec3 d, float tMin, float tBest, VS_INOUT(uint) node, VS_INOUT(uint) entry,
+                     VS_INOUT(uint) entryEnd) {
+  while (entry >= entryEnd && node < nodeCount) {
+    BvhNode n = VS_READ_NODE(node);
+    bool entered = vsBoxEntry(n.boundsMin, n.boundsMax, o, d, tMin, tBest) != VS_T_INFINITY;
+    bool leaf = n.count > 0u;
+    entry = entered && leaf ? n.rightOrFirst : entry;
+    entryEnd = entered && leaf ? n.rightOrFirst + n.count : entryEnd;
+    node = entered && !leaf ? node + 1u : VS_READ_NODE_ESCAPE(node);  // into the left child, or past the subtree
+  }
+  return entry < entryEnd;
+}
+
 // Closest hit of the world ray o + t*d, t in [tMin, tMax], over every instance. On a hit, tHit is the entry t,
-// instanceHit the instance index and voxel the hit voxel in that object's brick space.
+// instanceHit the instance index and voxel the hit voxel in that object's brick space. Instances are taken in
+// depth-first BVH order, left child first; equal hits go to the lower instance index.
 bool vsTraceClosest(vec3 o, vec3 d, float tMin, float tMax, VS_INOUT(float) tHit, VS_INOUT(uint) instanceHit,
                     VS_INOUT(ivec3) voxel) {
-  if (nodeCount == 0u) return false;
   bool hit = false;
   float tBest = tMax;
-  uint stack[VS_BVH_STACK_SIZE];
-  int top = 0;
-  stack[top++] = 0u;
-  // A full tree has 2n-1 nodes: each is visited at most once per ray.
-  uint budget = nodeCount;
-  while (top > 0 && budget > 0u) {
-    --budget;
-    uint nodeIndex = stack[--top];
-    BvhNode node = VS_READ_NODE(nodeIndex);
-    if (vsBoxEntry(node.boundsMin, node.boundsMax, o, d, tMin, tBest) == VS_T_INFINITY) continue;
-    if (node.count == 0u) {
-      if (top + 2 <= VS_BVH_STACK_SIZE) {
-        stack[top++] = node.rightOrFirst;
-        stack[top++] = nodeIndex + 1u;
+  uint node = 0u;
+  uint entry = 0u;
+  uint entryEnd = 0u;
+  // One loop over instances, the walk the only loop inside it: llvmpipe runs nested loops much slower.
+  bool more = vsNextLeafEntry(o, d, tMin, tBest, node, entry, entryEnd);
+  while (more) {
+    uint instanceIndex = VS_READ_INSTANCE_INDEX(entry);
+    entry += 1u;
+    Affine worldToBrick = VS_READ_WORLD_TO_BRICK(instanceIndex);
+    vec3 lo = vsApplyAffine(worldToBrick, o);
+    vec3 ld = vsApplyLinear(worldToBrick, d);
+    float t = VS_T_INFINITY;
+    ivec3 v = ivec3(0);
+    if (vsTraceObject(VS_READ_INSTANCE_OBJECT(instanceIndex), lo, ld, tMin, tBest, t, v)) {
+      if (!hit || t < tBest || (t == tBest && instanceIndex < instanceHit)) {
+        tBest = t;
+        instanceHit = instanceIndex;
+        voxel = v;
       }
-      continue;
+      hit = true;
     }
-    for (uint i = 0u; i < node.count; ++i) {
-      uint instanceIndex = VS_READ_INSTANCE_INDEX(node.rightOrFirst + i);
-      Affine worldToBrick = VS_READ_WORLD_TO_BRICK(instanceIndex);
-      vec3 lo = vsApplyAffine(worldToBrick, o);
-      vec3 ld = vsApplyLinear(worldToBrick, d);
-      float t = VS_T_INFINITY;
-      ivec3 v = ivec3(0);
-      if (vsTraceObject(VS_READ_INSTANCE_OBJECT(instanceIndex), lo, ld, tMin, tBest, t, v)) {
-        if (!hit || t < tBest || (t == tBest && instanceIndex < instanceHit)) {
-          tBest = t;
-          instanceHit = instanceIndex;
-          voxel = v;
-        }
-        hit = true;
-      }
-    }
+    more = vsNextLeafEntry(o, d, tMin, tBest, node, entry, entryEnd);
   }
   if (hit) tHit = tBest;
   return hit;

@@ -18,7 +18,7 @@ namespace {
 
 constexpr std::uint32_t kSplitBindings = kSplitArrayCount;  // bindings 0..4
 constexpr std::uint32_t kObjectsBinding = 5, kInstancesBinding = 6, kNodesBinding = 7, kIndicesBinding = 8;
-constexpr std::uint32_t kViewsBinding = 9, kImageBinding = 10, kBoxCodesBinding = 11;
+constexpr std::uint32_t kViewsBinding = 9, kImageBinding = 10, kBoxCodesBinding = 11, kEscapesBinding = 12;
 constexpr const char* kSplitNames[kSplitArrayCount] = {"regionTable", "regions", "sectors", "bricks", "occupancy"};
 
 // Mirrors the shader's TracePush block.
@@ -35,12 +35,17 @@ struct RecordArray {
   VkFormat format;
   std::uint32_t texelsPerElement;
 };
-constexpr RecordArray kRecordArrays[4] = {
+constexpr int kRecordArrayCount = 5;
+constexpr RecordArray kRecordArrays[kRecordArrayCount] = {
     {"objects", VK_FORMAT_R32G32B32A32_UINT, gpu::VS_OBJECT_TEXELS},
     {"instances", VK_FORMAT_R32G32B32A32_UINT, gpu::VS_INSTANCE_TEXELS},
     {"nodes", VK_FORMAT_R32G32B32A32_UINT, gpu::VS_NODE_TEXELS},
     {"instanceIndices", VK_FORMAT_R32_UINT, 1},
+    {"nodeEscapes", VK_FORMAT_R32_UINT, 1},
 };
+// Their bindings, in kRecordArrays order.
+constexpr std::uint32_t kRecordBindings[kRecordArrayCount] = {kObjectsBinding, kInstancesBinding, kNodesBinding,
+                                                              kIndicesBinding, kEscapesBinding};
 
 std::string mib(std::uint64_t bytes) {
   char buf[32];
@@ -77,8 +82,8 @@ struct VulkanTracer::Impl {
   PipelineStats pipelineStats;
 
   std::array<DeviceArray, kSplitArrayCount> split;
-  std::array<DeviceArray, 4> whole;  // kRecordArrays: objects, instances, nodes, instanceIndices
-  std::array<vk::UniqueBufferView, 4> wholeViews;
+  std::array<DeviceArray, kRecordArrayCount> whole;  // kRecordArrays
+  std::array<vk::UniqueBufferView, kRecordArrayCount> wholeViews;
   DeviceArray boxCodes;              // the box table; empty when the walk reads the hierarchy
   vk::UniqueBufferView boxCodesView;
   bool boxTableUploaded = false;
@@ -127,7 +132,7 @@ struct VulkanTracer::Impl {
   void createPipeline() {
     VkDevice dev = context.device();
     std::vector<VkDescriptorSetLayoutBinding> bindings;
-    for (std::uint32_t b = 0; b <= kBoxCodesBinding; ++b) {
+    for (std::uint32_t b = 0; b <= kEscapesBinding; ++b) {
       VkDescriptorSetLayoutBinding lb{};
       lb.binding = b;
       lb.descriptorType = b < kSplitBindings     ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
@@ -169,7 +174,7 @@ struct VulkanTracer::Impl {
     std::array<VkDescriptorPoolSize, 4> sizes{{
         {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kSplitBindings * kMaxBuffersPerArray},
         {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1},
-        {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 5},
+        {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, kRecordArrayCount + 1},
         {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC, 1},
     }};
     auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
@@ -289,11 +294,15 @@ struct VulkanTracer::Impl {
         {s.bricks.data(), s.bricks.size(), sizeof(gpu::Brick)},
         {s.occupancy.data(), s.occupancy.size(), sizeof(std::uint32_t)},
     }};
-    std::array<Src, 4> wholeSrc{{
+    if (s.nodeEscapes.size() != s.nodes.size())
+      throwBadInput("scene arrays: " + std::to_string(s.nodeEscapes.size()) + " node escapes for " +
+                    std::to_string(s.nodes.size()) + " BVH nodes (one per node expected)");
+    std::array<Src, kRecordArrayCount> wholeSrc{{
         {s.objects.data(), s.objects.size(), sizeof(gpu::ObjectRecord)},
         {s.instances.data(), s.instances.size(), sizeof(gpu::InstanceRecord)},
         {s.nodes.data(), s.nodes.size(), sizeof(gpu::BvhNode)},
         {s.instanceIndices.data(), s.instanceIndices.size(), sizeof(std::uint32_t)},
+        {s.nodeEscapes.data(), s.nodeEscapes.size(), sizeof(std::uint32_t)},
     }};
 
     // Refuse what cannot fit before allocating anything.
@@ -314,7 +323,7 @@ struct VulkanTracer::Impl {
                      std::to_string(kMaxBuffersPerArray) + " buffers of the device's storage-buffer limit (" +
                      mib(limit) + ", maxStorageBufferRange) on " + info.name);
     }
-    for (int a = 0; a < 4; ++a) {
+    for (int a = 0; a < kRecordArrayCount; ++a) {
       total += wholeSrc[a].elements * wholeSrc[a].size;
       // These arrays are bound whole: only the device limit applies, not the splitting threshold.
       std::uint64_t texels = wholeSrc[a].elements * kRecordArrays[a].texelsPerElement;
@@ -330,7 +339,7 @@ struct VulkanTracer::Impl {
 
     for (int a = 0; a < kSplitArrayCount; ++a)
       uploadArray(split[a], splitSrc[a].data, splitSrc[a].elements, splitSrc[a].size, perBuffer[a], shifts[a]);
-    for (int a = 0; a < 4; ++a) {
+    for (int a = 0; a < kRecordArrayCount; ++a) {
       bool reuse = whole[a].elements == wholeSrc[a].elements && wholeViews[a];
       uploadArray(whole[a], wholeSrc[a].data, wholeSrc[a].elements, wholeSrc[a].size,
                   std::max<std::uint64_t>(wholeSrc[a].elements, 1), 0, VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT);
@@ -388,14 +397,16 @@ struct VulkanTracer::Impl {
     auto orPlaceholder = [](const vk::UniqueBufferView& view, const vk::UniqueBufferView& placeholderView) {
       return view ? view.get() : placeholderView.get();
     };
-    const VkBufferView texelViews[5] = {
-        orPlaceholder(wholeViews[0], placeholderUint4), orPlaceholder(wholeViews[1], placeholderUint4),
-        orPlaceholder(wholeViews[2], placeholderUint4), orPlaceholder(wholeViews[3], placeholderUint),
-        orPlaceholder(boxCodesView, placeholderSint),
-    };
-    const std::uint32_t texelBindings[5] = {kObjectsBinding, kInstancesBinding, kNodesBinding, kIndicesBinding,
-                                            kBoxCodesBinding};
-    for (int t = 0; t < 5; ++t) {
+    std::array<VkBufferView, kRecordArrayCount + 1> texelViews{};
+    std::array<std::uint32_t, kRecordArrayCount + 1> texelBindings{};
+    for (int a = 0; a < kRecordArrayCount; ++a) {
+      bool uint4 = kRecordArrays[a].format == VK_FORMAT_R32G32B32A32_UINT;
+      texelViews[a] = orPlaceholder(wholeViews[a], uint4 ? placeholderUint4 : placeholderUint);
+      texelBindings[a] = kRecordBindings[a];
+    }
+    texelViews[kRecordArrayCount] = orPlaceholder(boxCodesView, placeholderSint);
+    texelBindings[kRecordArrayCount] = kBoxCodesBinding;
+    for (std::size_t t = 0; t < texelViews.size(); ++t) {
       auto w = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
       w.dstSet = descriptorSet;
       w.dstBinding = texelBindings[t];

@@ -43,10 +43,12 @@ struct SceneArrays {
   std::span<const gpu::InstanceRecord> instances;
   std::span<const gpu::BvhNode> nodes;
   std::span<const std::uint32_t> instanceIndices;
+  std::span<const std::uint32_t> nodeEscapes;  // one per node (Bvh::nodeEscapes)
 
   static SceneArrays from(const SceneData& scene) {
-    return {scene.regionTable, scene.regions, scene.sectors, scene.bricks, scene.occupancy,
-            scene.objects, scene.instances, scene.bvh.nodes(), scene.bvh.instanceIndices()};
+    return {scene.regionTable, scene.regions, scene.sectors,      scene.bricks,
+            scene.occupancy,   scene.objects, scene.instances,    scene.bvh.nodes(),
+            scene.bvh.instanceIndices(),      scene.bvh.nodeEscapes()};
   }
 };
 
