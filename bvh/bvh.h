@@ -29,8 +29,9 @@ class Bvh {
   static constexpr float kIntersectionCost = 1.0f;
   static constexpr int kBins = 16;
   static constexpr int kMaxLeafSize = 4;
-  // Deepest leaf (root at depth 0). The traversal keeps one pending sibling per level plus the two children
-  // it pushes on a stack of VS_BVH_STACK_SIZE (compute/shared/trace_view.h) entries: 64 - 2 levels fit
+  // Deepest leaf (root at depth 0). The CPU tiles' traversal (compute/cpu/tile_rays.h) keeps one pending
+  // sibling per level plus the two children it pushes on a stack of VS_BVH_STACK_SIZE
+  // (compute/shared/trace_view.h) entries: 64 - 2 levels fit
   // (bvh_test checks the two constants agree; bvh/ sits below compute/ and does not include it).
   static constexpr int kMaxDepth = 62;
   // shouldRebuild() threshold: refit SAH cost over the cost at build time.

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <cstdio>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -77,9 +78,33 @@ double timeMedian(int reps, const std::function<void()>& fn) {
   return median(seconds);
 }
 
+// Seconds of one call of fn.
+double timeOnce(const std::function<void()>& fn) {
+  auto start = std::chrono::steady_clock::now();
+  fn();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The machine's speed drifts over seconds (shared cores, clock changes), which medians taken one after the
+// other do not cancel. Pairs of back-to-back runs see the same conditions: the median of their ratios
+// (theirs / ours seconds) is the steadier figure. Prints it with its range.
+void printPairedRatio(const char* label, int reps, const std::function<double()>& ours,
+                      const std::function<double()>& theirs) {
+  std::vector<double> ratios;
+  for (int i = 0; i < reps; ++i) {
+    double a = ours();
+    ratios.push_back(theirs() / a);
+  }
+  std::sort(ratios.begin(), ratios.end());
+  std::printf("ratio %s / peer, median of %d back-to-back pairs: %.2fx (range %.2f-%.2fx)\n", label, reps,
+              median(ratios), ratios.front(), ratios.back());
+}
+
 // The Vulkan backend on the same rays: pipeline creation (the shader JIT on lavapipe) and the first trace
 // are reported apart from the steady state, the median over `reps` traces after one more warm-up trace.
 struct VulkanBench {
+  std::unique_ptr<VulkanTracer> tracer;  // kept for the paired runs
+  std::vector<ShadowLayer> layers;
   std::string device;
   double pipelineMs = 0.0;
   bool warmCache = false;
@@ -92,12 +117,13 @@ struct VulkanBench {
 VulkanBench benchVulkan(const SceneData& scene, const std::vector<gpu::TraceView>& views, int reps,
                         const std::vector<ShadowLayer>& reference) {
   VulkanBench b;
-  VulkanTracer tracer;
+  b.tracer = std::make_unique<VulkanTracer>();
+  VulkanTracer& tracer = *b.tracer;
   b.device = tracer.device().name;
   b.pipelineMs = tracer.pipelineStats().createMs;
   b.warmCache = tracer.pipelineStats().warmCache;
   tracer.upload(scene);
-  std::vector<ShadowLayer> layers;
+  std::vector<ShadowLayer>& layers = b.layers;
   b.firstWallMs = tracer.trace(views, layers).wallMs;
   tracer.trace(views, layers);
   std::vector<double> gpu, wall;
@@ -150,10 +176,11 @@ void runBench(const BenchOptions& opt) {
   std::printf("%-28s %9.3f s  %8.2f Mrays/s  (lookup tables built once in %.1f ms)\n", "cpu interleaved tiles",
               cpuSeconds, rays / cpuSeconds / 1e6, tracer.tableBuildSeconds() * 1e3);
   double vulkanSeconds = 0.0;
+  VulkanBench vb;
   if (opt.vulkan) {
     std::vector<ShadowLayer> reference;
     traceCpu(scene, views, reference, CpuTracePath::Reference, opt.threads);
-    VulkanBench vb = benchVulkan(scene, views, opt.reps, reference);
+    vb = benchVulkan(scene, views, opt.reps, reference);
     // Steady state from GPU timestamps where the device has them (the dispatch alone), else host time.
     vulkanSeconds = (vb.medianGpuMs > 0.0 ? vb.medianGpuMs : vb.medianWallMs) * 1e-3;
     std::printf("vulkan device: %s; pipeline creation %.1f ms (%s cache), first trace %.1f ms (wall)\n",
@@ -173,23 +200,18 @@ void runBench(const BenchOptions& opt) {
               rays / peerSeconds / 1e6, peerHits);
   std::printf("ratio cpu reference / peer:   %.2fx\n", peerSeconds / referenceSeconds);
   std::printf("ratio cpu interleaved / peer: %.2fx\n", peerSeconds / cpuSeconds);
-  // The machine's speed drifts over seconds (shared cores, clock changes), which the medians above, taken
-  // one after the other, do not cancel. Pairs of back-to-back traces see the same conditions: the median of
-  // their ratios is the steadier figure.
-  std::vector<double> pairRatios;
-  for (int i = 0; i < opt.reps; ++i) {
-    auto t0 = std::chrono::steady_clock::now();
-    tracer.trace(views, layers, CpuTracePath::Interleaved, opt.threads);
-    double ours = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    t0 = std::chrono::steady_clock::now();
-    peerOut = peer.traceViews(scene, views, opt.threads);
-    double theirs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    pairRatios.push_back(theirs / ours);
-  }
-  std::sort(pairRatios.begin(), pairRatios.end());
-  std::printf("ratio cpu interleaved / peer, median of %d back-to-back pairs: %.2fx (range %.2f-%.2fx)\n", opt.reps,
-              median(pairRatios), pairRatios.front(), pairRatios.back());
   if (opt.vulkan) std::printf("ratio vulkan / peer:          %.2fx\n", peerSeconds / vulkanSeconds);
+  auto peerRun = [&] { return timeOnce([&] { peerOut = peer.traceViews(scene, views, opt.threads); }); };
+  printPairedRatio("cpu interleaved", opt.reps,
+                   [&] { return timeOnce([&] { tracer.trace(views, layers, CpuTracePath::Interleaved, opt.threads); }); },
+                   peerRun);
+  if (opt.vulkan) {
+    // The steady state as above: the dispatch from GPU timestamps where the device has them.
+    printPairedRatio("vulkan", opt.reps, [&] {
+      TraceStats t = vb.tracer->trace(views, vb.layers);
+      return (t.gpuMs > 0.0 ? t.gpuMs : t.wallMs) * 1e-3;
+    }, peerRun);
+  }
 }
 
 }  // namespace

@@ -303,13 +303,12 @@ int vsObjectWalkStep(VS_INOUT(ObjectWalk) w) {
 #ifdef VS_READ_BOX_CODE
 // The walk over a box table: per object, one code per brick (VS_BOX_* in trace_view.h; LaneTables::brickCodes
 // of compute/cpu/lane_tracer.h), laid out like the object's region table with 16^3 bricks per region; a partial
-// brick's code is the table index of its occupancy words. A partial brick's cells are empty exactly where their
-// occupancy byte is 0. One read per step instead of the chain from
-// the region table down, and boxes far larger than aligned cells; the canonical order makes the result that of
-// vsObjectWalkStep bit for bit.
-// The whole walk over the box table, as one loop with a single exit, so that a SIMD shader keeps no per-step
-// status: returns true on a hit (w.v, w.tEnter hold it). `table` is the index of the code of brick (0, 0, 0)
-// (it may lie outside the table), `rowStride` and `sliceStride` the code index steps along y and z.
+// brick's code is the table index of its occupancy words, and its cells are empty exactly where their occupancy
+// byte is 0. One read per step instead of the chain from the region table down, and boxes far larger than
+// aligned cells; the canonical order makes the result that of vsObjectWalkStep bit for bit.
+// The whole walk is one loop with a single exit, so that a SIMD shader keeps no per-step status: returns true
+// on a hit (w.v, w.tEnter hold it). `table` is the index of the code of brick (0, 0, 0) (it may lie outside
+// the table), `rowStride` and `sliceStride` the code index steps along y and z.
 bool vsObjectWalkBoxes(VS_INOUT(ObjectWalk) w, int table, int rowStride, int sliceStride) {
   ivec3 vmin = ivec3(w.obj.voxelMin);
   ivec3 vmax = ivec3(w.obj.voxelMax);

@@ -245,7 +245,7 @@ struct VulkanTracer::Impl {
       context.upload(dst.buffers[b], 0, bytes + b * elementsPerBuffer * elementSize, dst.buffers[b].size);
   }
 
-  // The box table of vsObjectWalkStepBoxes from the CPU fast path's brick codes: each object's first code
+  // The box table of vsObjectWalkBoxes from the CPU fast path's brick codes: each object's first code
   // (offset past this header), then the codes, then a copy of the occupancy words, to which the codes of
   // partial bricks point, so that a step reads this one texel buffer only. Empty when the tables cannot be
   // built for the scene (too large, or cells whose mask differs from their occupancy byte) or exceed
