@@ -257,9 +257,7 @@ struct alignas(32) Lanes {
   int voxelMin[3][kLanes], voxelMax[3][kLanes];
   int dPositive[3][kLanes];  // all ones where d > 0
   int dNonZero[3][kLanes];   // all ones where d != 0
-  // Outside a band of 2^-16 (1 + |o| + |d| max|t|) around a voxel plane, floor(o + d*t) is the canonical
-  // coordinate (the rounding errors of the point and of a plane's t stay below 2^-21 of that scale, and the
-  // band is 32 times that), so only lanes within it settle; one band for the whole walk, never below any step's.
+  // vsNearPlane's band for the whole walk: 2^-16 (1 + |o| + |d| max|t|), never below the band of any step.
   float nearBand[3][kLanes];
   int live[kLanes];          // all ones while the lane walks
   // Between the parts of a step (beginStepLanes, lookupLanes, advanceLanes): the voxel's cell log2, whether
@@ -584,8 +582,8 @@ int advanceLanes(Lanes& L, int& hits) {
     __m256i f = _mm256_cvttps_epi32(_mm256_round_ps(p, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC));
     __m256i moved = _mm256_min_epi32(_mm256_max_epi32(f, select(cellMin[a], v[a], dPositive[a])),
                                      select(v[a], far, dPositive[a]));
-    // Lanes within the near-plane band need vsSettleCoord (the reference settles every coordinate; where
-    // floor is already canonical both give the same).
+    // vsNearPlane: lanes whose coordinate needs vsSettleCoord (the test may differ from the reference's in
+    // rounding; either way the settled coordinate is the canonical one).
     const __m256 absMask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
     __m256 dist = _mm256_and_ps(absMask, _mm256_sub_ps(p, _mm256_round_ps(p, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC)));
     settle[a] = _mm256_andnot_si256(

@@ -168,6 +168,14 @@ int vsSettleCoord(float o, float d, float invD, int c, int lo, int hi, float t, 
   return back ? c - step : (ahead ? c + step : c);
 }
 
+// Whether floor(x), x = o + d*t along one axis, could disagree with the plane comparisons of vsPlaneCrossed: only
+// when x lies within a hair of an integer plane. The rounding errors of x and of a plane's t amount to less than
+// 2^-21 of `scale` = 1 + |o| + |d*t| in position; the band is 32 times that, so outside it floor(x) is the
+// canonical coordinate and the settle can be skipped.
+bool vsNearPlane(float x, float scale) {
+  return abs(x - floor(x + 0.5f)) <= scale * (1.0f / 65536.0f);
+}
+
 // One axis of a slab test against [lo, hi]: narrows [t0, t1] to where the ray lies between the two planes and
 // gives 1/d (0 where d is 0). A ray parallel to the planes is kept when lo <= o and o < hi (o <= hi when
 // `hiExclusive` is false).
@@ -230,15 +238,20 @@ float vsAxisExit(float o, float d, float invD, int boxMin, int boxEnd) {
 
 // The coordinate along one axis (`axis`, not the exit axis `exitAxis`) of the voxel after the box, left at tExit:
 // the canonical coordinate at tExit, between the current voxel v and the box's far face (the ray never moves
-// back). floor(o + d*tExit) is within one voxel of it, and vsSettleCoord settles it every time: a shader
-// running rays as SIMD lanes pays for every branch any lane takes, and the settle is cheaper than deciding
-// whether it is needed.
+// back). floor(o + d*tExit) is within one voxel of it, and vsSettleCoord settles it. A shader settles every
+// time: running rays as SIMD lanes, it pays for every branch any lane takes, and the settle is cheaper than
+// deciding whether it is needed; C++ settles only near a plane (vsNearPlane). Both give the same coordinate.
 int vsAxisNext(float o, float d, float invD, int v, int boxMin, int boxEnd, float tExit, int axis, int exitAxis) {
   VS_PRECISE float p = o + d * tExit;
   bool up = d > 0.0f;
   int from = up ? v : boxMin;
   int to = up ? boxEnd - 1 : v;
   int c = clamp(int(clamp(floor(p), float(boxMin), float(boxEnd - 1))), from, to);
+#ifndef VS_GLSL
+  // One ray at a time, skipping the settle where floor is provably canonical is the cheaper way.
+  if (d == 0.0f) return v;
+  if (!vsNearPlane(p, 1.0f + abs(o) + abs(d * tExit))) return c;
+#endif
   int settled = vsSettleCoord(o, d, invD, c, from, to, tExit, axis > exitAxis);
   return d == 0.0f ? v : settled;
 }
