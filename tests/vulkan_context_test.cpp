@@ -306,6 +306,22 @@ TEST(VulkanTracer, RefusesArraysBeyondTheBindingLimit) {
   expectNoValidationMessages(tracer);
 }
 
+// Arrays assembled by hand must carry one node escape per BVH node; a mismatch is bad input, named.
+TEST(VulkanTracer, RefusesMissingNodeEscapes) {
+  vs::VulkanTracer tracer(validatedOptions());
+  TinyScene scene = heightScene();
+  scene.nodeEscapes.clear();
+  try {
+    tracer.upload(scene.arrays());
+    FAIL() << "arrays without node escapes were accepted";
+  } catch (const vs::Error& e) {
+    EXPECT_EQ(e.kind(), vs::ErrorKind::BadInput);
+    std::string what = e.what();
+    EXPECT_NE(what.find("node escapes"), std::string::npos) << what;
+  }
+  expectNoValidationMessages(tracer);
+}
+
 TEST(VulkanTracer, PipelineCacheIsWrittenAndReused) {
   vs::VulkanOptions o = validatedOptions();
   o.cacheDir = vs::test::scratchDir("vulkan_pipeline_cache");
