@@ -66,6 +66,7 @@ TEST(CliVulkan, InfoDevicesListsEveryDevice) {
     }
   }
   EXPECT_TRUE(contains(out, "maxStorageBufferRange")) << out;
+  EXPECT_TRUE(contains(out, "maxTexelBufferElements")) << out;
   EXPECT_TRUE(contains(out, "(default)")) << out;
 
   ASSERT_EQ(cli("info --devices --json", out), 0) << out;
@@ -75,6 +76,7 @@ TEST(CliVulkan, InfoDevicesListsEveryDevice) {
     EXPECT_EQ(j[i]["name"], devices[i].name);
     EXPECT_EQ(j[i]["type"], vs::toString(devices[i].type));
     EXPECT_EQ(j[i]["maxStorageBufferRange"].get<std::uint64_t>(), devices[i].maxStorageBufferRange);
+    EXPECT_EQ(j[i]["maxTexelBufferElements"].get<std::uint64_t>(), devices[i].maxTexelBufferElements);
   }
   EXPECT_EQ(cli("info --devices " + quote("x.vdb"), out), 2) << out;
 }

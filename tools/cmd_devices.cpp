@@ -43,6 +43,7 @@ void printVulkanDevices(bool asJson) {
                      {"default", d.index == chosen},
                      {"computeQueue", d.hasComputeQueue},
                      {"maxStorageBufferRange", d.maxStorageBufferRange},
+                     {"maxTexelBufferElements", d.maxTexelBufferElements},
                      {"maxMemoryAllocationSize", d.maxMemoryAllocationSize},
                      {"deviceLocalBytes", d.deviceLocalBytes},
                      {"maxPerStageStorageBuffers", d.maxPerStageStorageBuffers},
@@ -68,6 +69,7 @@ void printVulkanDevices(bool asJson) {
                 d.timestampValidBits > 0 ? "yes" : "no");
     std::printf("  maxStorageBufferRange %.1f MiB, maxMemoryAllocationSize %.1f MiB, device-local heap %.1f MiB\n",
                 mib(d.maxStorageBufferRange), mib(d.maxMemoryAllocationSize), mib(d.deviceLocalBytes));
+    std::printf("  maxTexelBufferElements %llu\n", static_cast<unsigned long long>(d.maxTexelBufferElements));
     std::printf("  storage buffers per stage %u, image 2D %u, array layers %u, workgroups %u x %u x %u\n",
                 d.maxPerStageStorageBuffers, d.maxImageDimension2D, d.maxImageArrayLayers, d.maxWorkGroupCount[0],
                 d.maxWorkGroupCount[1], d.maxWorkGroupCount[2]);
