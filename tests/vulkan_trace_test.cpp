@@ -207,6 +207,47 @@ TEST_F(VulkanTrace, ManyInstancesMatchCpu) {
   }
 }
 
+// A frame in which only instances moved: uploadInstances() keeps the voxel arrays and the box table on the
+// device, and the trace equals the CPU reference of the moved scene, bit for bit.
+TEST_F(VulkanTrace, MovedInstancesNeedOnlyTheInstanceUpload) {
+  auto scene = test::manyInstancesScene(300);
+  auto views = standardViews(scene.data.worldBounds, 64);
+  expectGpuMatchesCpu(*tracer_, scene.name + " (before the move)", scene.data, views);
+  ASSERT_TRUE(tracer_->boxTableInUse());
+  std::vector<ShadowLayer> before;
+  tracer_->trace(views, before);
+
+  for (std::size_t i = 0; i < scene.data.instances.size(); i += 3) {
+    const gpu::Affine& m = scene.data.instances[i].brickToWorld;
+    glm::dmat4 brickToWorld(1.0);
+    for (int c = 0; c < 4; ++c) brickToWorld[c] = glm::dvec4(m.row0[c], m.row1[c], m.row2[c], c == 3 ? 1.0 : 0.0);
+    scene.data.moveInstance(i, glm::translate(glm::dmat4(1.0), glm::dvec3(3.25, -1.5, 2.0)) * brickToWorld);
+  }
+  tracer_->uploadInstances(scene.data);
+  EXPECT_TRUE(tracer_->boxTableInUse());
+  std::vector<ShadowLayer> gpuLayers, cpuLayers;
+  tracer_->trace(views, gpuLayers);
+  traceCpu(scene.data, views, cpuLayers, CpuTracePath::Reference, 0);
+  Comparison c = compareLayers(scene.data, views, gpuLayers, cpuLayers);
+  EXPECT_EQ(c.bitDifferent, 0u);
+  EXPECT_GT(c.hits, 0u);
+  std::size_t changed = 0;
+  for (std::size_t i = 0; i < views.size(); ++i)
+    for (std::size_t k = 0; k < before[i].texels.size(); ++k) changed += before[i].texels[k] != gpuLayers[i].texels[k];
+  EXPECT_GT(changed, 0u) << "the move should change the shadows";
+
+  // Another scene's voxel arrays cannot be kept: refused, naming the call to make.
+  auto other = test::floorScene();
+  try {
+    tracer_->uploadInstances(other.data);
+    FAIL() << "uploadInstances accepted a scene with other voxel arrays";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+    EXPECT_NE(std::string(e.what()).find("upload()"), std::string::npos) << e.what();
+  }
+  for (const std::string& m : tracer_->validationMessages()) ADD_FAILURE() << "validation: " << m;
+}
+
 TEST_F(VulkanTrace, City512MatchesCpu) {
   auto scene = test::city512Scene();
   expectGpuMatchesCpu(*tracer_, scene.name, scene.data, standardViews(scene.data.worldBounds, 128));

@@ -57,6 +57,28 @@ double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// One array's host data.
+struct HostArray {
+  const void* data;
+  std::uint64_t elements;
+  std::uint64_t size;  // bytes per element
+};
+
+// The record arrays of kRecordArrays, in order. Throws vs::Error(BadInput) when the BVH's node escapes do not
+// match its nodes.
+std::array<HostArray, kRecordArrayCount> recordArrays(const SceneArrays& s) {
+  if (s.nodeEscapes.size() != s.nodes.size())
+    throwBadInput("scene arrays: " + std::to_string(s.nodeEscapes.size()) + " node escapes for " +
+                  std::to_string(s.nodes.size()) + " BVH nodes (one per node expected)");
+  return {{
+      {s.objects.data(), s.objects.size(), sizeof(gpu::ObjectRecord)},
+      {s.instances.data(), s.instances.size(), sizeof(gpu::InstanceRecord)},
+      {s.nodes.data(), s.nodes.size(), sizeof(gpu::BvhNode)},
+      {s.instanceIndices.data(), s.instanceIndices.size(), sizeof(std::uint32_t)},
+      {s.nodeEscapes.data(), s.nodeEscapes.size(), sizeof(std::uint32_t)},
+  }};
+}
+
 // One array's device copy: its buffers and how indices map onto them.
 struct DeviceArray {
   std::vector<vk::Buffer> buffers;
@@ -282,28 +304,14 @@ struct VulkanTracer::Impl {
   void upload(const SceneArrays& s, std::span<const std::int32_t> table = {}) {
     const VulkanDeviceInfo& info = context.info();
     const std::uint64_t limit = bindingLimit();
-    struct Src {
-      const void* data;
-      std::uint64_t elements;
-      std::uint64_t size;
-    };
-    std::array<Src, kSplitArrayCount> splitSrc{{
+    std::array<HostArray, kSplitArrayCount> splitSrc{{
         {s.regionTable.data(), s.regionTable.size(), sizeof(std::uint32_t)},
         {s.regions.data(), s.regions.size(), sizeof(gpu::Region)},
         {s.sectors.data(), s.sectors.size(), sizeof(gpu::Sector)},
         {s.bricks.data(), s.bricks.size(), sizeof(gpu::Brick)},
         {s.occupancy.data(), s.occupancy.size(), sizeof(std::uint32_t)},
     }};
-    if (s.nodeEscapes.size() != s.nodes.size())
-      throwBadInput("scene arrays: " + std::to_string(s.nodeEscapes.size()) + " node escapes for " +
-                    std::to_string(s.nodes.size()) + " BVH nodes (one per node expected)");
-    std::array<Src, kRecordArrayCount> wholeSrc{{
-        {s.objects.data(), s.objects.size(), sizeof(gpu::ObjectRecord)},
-        {s.instances.data(), s.instances.size(), sizeof(gpu::InstanceRecord)},
-        {s.nodes.data(), s.nodes.size(), sizeof(gpu::BvhNode)},
-        {s.instanceIndices.data(), s.instanceIndices.size(), sizeof(std::uint32_t)},
-        {s.nodeEscapes.data(), s.nodeEscapes.size(), sizeof(std::uint32_t)},
-    }};
+    const std::array<HostArray, kRecordArrayCount> wholeSrc = recordArrays(s);
 
     // Refuse what cannot fit before allocating anything.
     std::uint64_t total = 0;
@@ -325,12 +333,7 @@ struct VulkanTracer::Impl {
     }
     for (int a = 0; a < kRecordArrayCount; ++a) {
       total += wholeSrc[a].elements * wholeSrc[a].size;
-      // These arrays are bound whole: only the device limit applies, not the splitting threshold.
-      std::uint64_t texels = wholeSrc[a].elements * kRecordArrays[a].texelsPerElement;
-      if (texels > info.maxTexelBufferElements)
-        throwRuntime("scene array '" + std::string(kRecordArrays[a].name) + "' needs " + std::to_string(texels) +
-                     " texels, more than the device's texel-buffer limit (" +
-                     std::to_string(info.maxTexelBufferElements) + ", maxTexelBufferElements) on " + info.name);
+      checkRecordArray(a, wholeSrc[a].elements);
     }
     total += std::uint64_t(table.size()) * sizeof(std::int32_t);
     if (info.deviceLocalBytes > 0 && total > info.deviceLocalBytes)
@@ -339,15 +342,7 @@ struct VulkanTracer::Impl {
 
     for (int a = 0; a < kSplitArrayCount; ++a)
       uploadArray(split[a], splitSrc[a].data, splitSrc[a].elements, splitSrc[a].size, perBuffer[a], shifts[a]);
-    for (int a = 0; a < kRecordArrayCount; ++a) {
-      bool reuse = whole[a].elements == wholeSrc[a].elements && wholeViews[a];
-      uploadArray(whole[a], wholeSrc[a].data, wholeSrc[a].elements, wholeSrc[a].size,
-                  std::max<std::uint64_t>(wholeSrc[a].elements, 1), 0, VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT);
-      if (whole[a].buffers.empty())
-        wholeViews[a].reset();
-      else if (!reuse)
-        wholeViews[a] = context.createTexelView(whole[a].buffers[0], kRecordArrays[a].format);
-    }
+    for (int a = 0; a < kRecordArrayCount; ++a) uploadRecordArray(a, wholeSrc[a]);
     if (table.empty()) {
       boxCodesView.reset();
       boxCodes = DeviceArray{};
@@ -360,6 +355,44 @@ struct VulkanTracer::Impl {
     boxTableUploaded = !table.empty();
     nodeCount = static_cast<std::uint32_t>(s.nodes.size());
     uploaded = true;
+  }
+
+  // Record arrays are bound whole as texel buffers: only the device's texel limit applies, not the splitting
+  // threshold.
+  void checkRecordArray(int a, std::uint64_t elements) const {
+    const VulkanDeviceInfo& info = context.info();
+    std::uint64_t texels = elements * kRecordArrays[a].texelsPerElement;
+    if (texels > info.maxTexelBufferElements)
+      throwRuntime("scene array '" + std::string(kRecordArrays[a].name) + "' needs " + std::to_string(texels) +
+                   " texels, more than the device's texel-buffer limit (" +
+                   std::to_string(info.maxTexelBufferElements) + ", maxTexelBufferElements) on " + info.name);
+  }
+
+  void uploadRecordArray(int a, const HostArray& src) {
+    bool reuse = whole[a].elements == src.elements && wholeViews[a];
+    uploadArray(whole[a], src.data, src.elements, src.size, std::max<std::uint64_t>(src.elements, 1), 0,
+                VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT);
+    if (whole[a].buffers.empty())
+      wholeViews[a].reset();
+    else if (!reuse)
+      wholeViews[a] = context.createTexelView(whole[a].buffers[0], kRecordArrays[a].format);
+  }
+
+  // The instances and the BVH only (record arrays 1..4), keeping the voxel arrays and the box table.
+  void uploadInstances(const SceneData& scene) {
+    if (!uploaded) throwRuntime("VulkanTracer::uploadInstances called before upload()");
+    const SceneArrays s = SceneArrays::from(scene);
+    const std::uint64_t voxelArrays[kSplitArrayCount] = {s.regionTable.size(), s.regions.size(), s.sectors.size(),
+                                                         s.bricks.size(), s.occupancy.size()};
+    bool same = whole[0].elements == s.objects.size();
+    for (int a = 0; a < kSplitArrayCount; ++a) same = same && split[a].elements == voxelArrays[a];
+    if (!same)
+      throwBadInput("VulkanTracer::uploadInstances: the scene's objects or voxel arrays differ in size from the "
+                    "last upload(); call upload() after voxel edits");
+    const std::array<HostArray, kRecordArrayCount> records = recordArrays(s);
+    for (int a = 1; a < kRecordArrayCount; ++a) checkRecordArray(a, records[a].elements);
+    for (int a = 1; a < kRecordArrayCount; ++a) uploadRecordArray(a, records[a]);
+    nodeCount = static_cast<std::uint32_t>(s.nodes.size());
   }
 
   void writeDescriptors() {
@@ -614,6 +647,7 @@ VulkanTracer::~VulkanTracer() = default;
 void VulkanTracer::upload(const SceneData& scene) { impl_->upload(scene); }
 bool VulkanTracer::boxTableInUse() const { return impl_->boxTableUploaded; }
 void VulkanTracer::upload(const SceneArrays& scene) { impl_->upload(scene); }
+void VulkanTracer::uploadInstances(const SceneData& scene) { impl_->uploadInstances(scene); }
 TraceStats VulkanTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) {
   return impl_->trace(views, layers);
 }
