@@ -40,9 +40,7 @@ layout(set = 0, binding = 12) uniform usamplerBuffer nodeEscapeTexels;
 layout(std140, set = 0, binding = 9) uniform ViewBlock { TraceView currentView; };
 layout(set = 0, binding = 10, r32f) uniform writeonly image2DArray shadowImage;
 // The box table (traverse.h, vsObjectWalkBoxes): one first-code index per object, the codes, then the
-// occupancy words the codes of partial bricks point to. A texel buffer, not a storage buffer: llvmpipe reads
-// a storage buffer at a per-invocation index one SIMD lane at a time, behind a branch per lane, while a texel
-// fetch is one gather for all lanes, and the walk does little else per step.
+// occupancy words the codes of partial bricks point to, so that a step reads this one texel buffer.
 layout(set = 0, binding = 11) uniform isamplerBuffer boxTable;
 
 layout(push_constant) uniform TracePush {
