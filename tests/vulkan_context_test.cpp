@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <initializer_list>
 #include <string>
 #include <vector>
 
@@ -288,22 +289,28 @@ TEST(VulkanTracer, SplitBuffersGiveTheSameImage) {
   expectNoValidationMessages(tracer);
 }
 
+// Expects upload() of the scene to fail with an error of `kind` whose message names each of `words`, and the
+// tracer to stay free of validation messages.
+void expectUploadRefused(vs::VulkanTracer& tracer, const TinyScene& scene, vs::ErrorKind kind,
+                         std::initializer_list<const char*> words) {
+  try {
+    tracer.upload(scene.arrays());
+    ADD_FAILURE() << "the upload was accepted";
+  } catch (const vs::Error& e) {
+    EXPECT_EQ(e.kind(), kind);
+    std::string what = e.what();
+    for (const char* word : words) EXPECT_NE(what.find(word), std::string::npos) << what;
+  }
+  expectNoValidationMessages(tracer);
+}
+
 TEST(VulkanTracer, RefusesArraysBeyondTheBindingLimit) {
   vs::VulkanOptions o = validatedOptions();
   o.maxBindingBytes = 64;
   vs::VulkanTracer tracer(o);
   TinyScene scene = heightScene();
   scene.occupancy.assign(1000, 0u);  // 4000 bytes: 63 bindings of 64 bytes, more than the shader has
-  try {
-    tracer.upload(scene.arrays());
-    FAIL() << "an oversized array was accepted";
-  } catch (const vs::Error& e) {
-    EXPECT_EQ(e.kind(), vs::ErrorKind::Runtime);
-    std::string what = e.what();
-    EXPECT_NE(what.find("occupancy"), std::string::npos) << what;
-    EXPECT_NE(what.find("maxStorageBufferRange"), std::string::npos) << what;
-  }
-  expectNoValidationMessages(tracer);
+  expectUploadRefused(tracer, scene, vs::ErrorKind::Runtime, {"occupancy", "maxStorageBufferRange"});
 }
 
 // Arrays assembled by hand must carry one node escape per BVH node; a mismatch is bad input, named.
@@ -311,15 +318,7 @@ TEST(VulkanTracer, RefusesMissingNodeEscapes) {
   vs::VulkanTracer tracer(validatedOptions());
   TinyScene scene = heightScene();
   scene.nodeEscapes.clear();
-  try {
-    tracer.upload(scene.arrays());
-    FAIL() << "arrays without node escapes were accepted";
-  } catch (const vs::Error& e) {
-    EXPECT_EQ(e.kind(), vs::ErrorKind::BadInput);
-    std::string what = e.what();
-    EXPECT_NE(what.find("node escapes"), std::string::npos) << what;
-  }
-  expectNoValidationMessages(tracer);
+  expectUploadRefused(tracer, scene, vs::ErrorKind::BadInput, {"node escapes"});
 }
 
 TEST(VulkanTracer, PipelineCacheIsWrittenAndReused) {

@@ -217,11 +217,10 @@ TEST_F(VulkanTrace, MovedInstancesNeedOnlyTheInstanceUpload) {
   std::vector<ShadowLayer> before;
   tracer_->trace(views, before);
 
+  const glm::vec3 lo = scene.data.worldBounds.min, size = scene.data.worldBounds.max - lo;
   for (std::size_t i = 0; i < scene.data.instances.size(); i += 3) {
-    const gpu::Affine& m = scene.data.instances[i].brickToWorld;
-    glm::dmat4 brickToWorld(1.0);
-    for (int c = 0; c < 4; ++c) brickToWorld[c] = glm::dvec4(m.row0[c], m.row1[c], m.row2[c], c == 3 ? 1.0 : 0.0);
-    scene.data.moveInstance(i, glm::translate(glm::dmat4(1.0), glm::dvec3(3.25, -1.5, 2.0)) * brickToWorld);
+    glm::dvec3 to = glm::dvec3(lo) + glm::dvec3(size) * glm::dvec3(double(i % 7) / 7.0, 0.5, double(i % 5) / 5.0);
+    scene.data.moveInstance(i, glm::translate(glm::dmat4(1.0), to));
   }
   tracer_->uploadInstances(scene.data);
   EXPECT_TRUE(tracer_->boxTableInUse());

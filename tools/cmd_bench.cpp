@@ -66,23 +66,19 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-// Runs fn once to warm up, then `reps` times; returns the median seconds.
-double timeMedian(int reps, const std::function<void()>& fn) {
-  fn();
-  std::vector<double> seconds;
-  for (int i = 0; i < reps; ++i) {
-    auto start = std::chrono::steady_clock::now();
-    fn();
-    seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  }
-  return median(seconds);
-}
-
 // Seconds of one call of fn.
 double timeOnce(const std::function<void()>& fn) {
   auto start = std::chrono::steady_clock::now();
   fn();
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Runs fn once to warm up, then `reps` times; returns the median seconds.
+double timeMedian(int reps, const std::function<void()>& fn) {
+  fn();
+  std::vector<double> seconds;
+  for (int i = 0; i < reps; ++i) seconds.push_back(timeOnce(fn));
+  return median(seconds);
 }
 
 // The machine's speed drifts over seconds (shared cores, clock changes), which medians taken one after the

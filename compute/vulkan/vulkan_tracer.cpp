@@ -92,10 +92,11 @@ struct VulkanTracer::Impl {
   VulkanOptions options;
   VulkanContext context;
   std::unique_ptr<DiskPipelineCache> cache;
-  vk::ComputePipeline pipeline;   // pipeline.pipeline: variant (no split, options.boxTable, entry depth)
+  vk::ComputePipeline pipeline;   // its layouts; the pipelines themselves are `variants`
   vk::UniqueShaderModule module;
-  // The other variants (arrays over several bindings or not, walk with or without the box table, depth at the
-  // entry point or the voxel centre), created on first need; see variantIndex.
+  // One pipeline per value of the shader's specialization constants (arrays over several bindings or not,
+  // walk with or without the box table, depth at the entry point or the voxel centre), created on first need
+  // by variant().
   std::array<vk::UniquePipeline, 8> variants;
   vk::UniqueDescriptorPool descriptorPool;
   VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
@@ -186,11 +187,11 @@ struct VulkanTracer::Impl {
     cache = std::make_unique<DiskPipelineCache>(context, dir);
     module = context.createShaderModule(shadow_trace, sizeof(shadow_trace));
     auto t0 = std::chrono::steady_clock::now();
-    pipeline.pipeline = makePipeline(false, options.boxTable, false);
+    variant(false, options.boxTable, false);  // the usual one, so that creation is timed and cached here
     pipelineStats.createMs = msSince(t0);
     pipelineStats.warmCache = cache->warm();
     pipelineStats.cacheFile = cache->file();
-    pipelineStats.cacheSaved = cache->save();
+    pipelineStats.cacheSaved = cache->lastError().empty();
     pipelineStats.cacheError = cache->lastError();
 
     std::array<VkDescriptorPoolSize, 4> sizes{{
@@ -214,7 +215,16 @@ struct VulkanTracer::Impl {
   }
 
   // The trace pipeline with the shader's specialization constants VS_SPLIT_BINDINGS = `split`, VS_BOX_TABLE =
-  // `boxes` and VS_DEPTH_AT_CENTER = `centerDepth`.
+  // `boxes` and VS_DEPTH_AT_CENTER = `centerDepth`; created (and the disk cache saved) on first need.
+  VkPipeline variant(bool split, bool boxes, bool centerDepth) {
+    vk::UniquePipeline& p = variants[(split ? 4 : 0) + (boxes ? 2 : 0) + (centerDepth ? 1 : 0)];
+    if (!p) {
+      p = makePipeline(split, boxes, centerDepth);
+      cache->save();
+    }
+    return p.get();
+  }
+
   vk::UniquePipeline makePipeline(bool split, bool boxes, bool centerDepth) {
     VkBool32 values[3] = {split ? VK_TRUE : VK_FALSE, boxes ? VK_TRUE : VK_FALSE, centerDepth ? VK_TRUE : VK_FALSE};
     VkSpecializationMapEntry entries[3] = {{0, 0, sizeof(VkBool32)},
@@ -532,19 +542,8 @@ struct VulkanTracer::Impl {
     const bool useSplit = splitBindings();
     // Each view's pipeline: the depth point is a specialization constant, so the other one's code is not run.
     std::vector<VkPipeline> viewPipelines(layerCount);
-    for (std::uint32_t i = 0; i < layerCount; ++i) {
-      bool centerDepth = views[i].info.w == gpu::VS_DEPTH_POINT_VOXEL_CENTER;
-      if (!useSplit && boxTableUploaded == options.boxTable && !centerDepth) {
-        viewPipelines[i] = pipeline.pipeline.get();
-        continue;
-      }
-      vk::UniquePipeline& variant = variants[(useSplit ? 4 : 0) + (boxTableUploaded ? 2 : 0) + (centerDepth ? 1 : 0)];
-      if (!variant) {
-        variant = makePipeline(useSplit, boxTableUploaded, centerDepth);
-        cache->save();
-      }
-      viewPipelines[i] = variant.get();
-    }
+    for (std::uint32_t i = 0; i < layerCount; ++i)
+      viewPipelines[i] = variant(useSplit, boxTableUploaded, views[i].info.w == gpu::VS_DEPTH_POINT_VOXEL_CENTER);
     TracePush push{};
     push.nodeCount = nodeCount;
     for (int a = 0; a < kSplitArrayCount; ++a) push.shifts[a] = split[a].shift;
