@@ -1,16 +1,89 @@
 // scene.cpp: loading a scene file into objects, instances and trace arrays; moving instances.
 #include "lighting/scene.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
+#include <vector>
 
 #include "voxel/error.h"
+#include "voxel/valid_range.h"
 
 namespace vs {
 
-Scene Scene::load(const std::filesystem::path& sceneFile) {
+namespace {
+
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+// Chebyshev distance, in voxels, from a brick-space point to an object's voxel box.
+double voxelsFromBox(const glm::dvec3& p, const VoxelBox& box) {
+  double d = 0.0;
+  for (int a = 0; a < 3; ++a) d = std::max({d, double(box.min[a]) - p[a], p[a] - double(box.max[a])});
+  return d;
+}
+
+// The checks that need loaded objects: each instance's voxels stay within the coordinate range, and every
+// ray origin stays within limits::kMaxRayVoxels of every object, in that object's voxels (a spot light 1 km
+// from a 1 mm voxel plate would otherwise need float voxel coordinates beyond their exact range).
+void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects, std::span<const SceneInstance> instances,
+                    const Aabb& worldBounds) {
+  const std::string file = desc.file.string();
+  for (std::size_t i = 0; i < instances.size(); ++i) {
+    const VoxelBox box = objects[instances[i].object].brickmap.bounds();
+    const std::string where = file + ": instances[" + std::to_string(i) + "] (asset '" + desc.instances[i].asset + "')";
+    if (box.empty()) continue;
+    for (int c = 0; c < 8; ++c) {
+      glm::dvec4 p((c & 1) ? box.max.x : box.min.x, (c & 2) ? box.max.y : box.min.y, (c & 4) ? box.max.z : box.min.z, 1.0);
+      glm::dvec3 w(instances[i].brickToWorld * p);
+      for (int a = 0; a < 3; ++a)
+        if (!(std::abs(w[a]) <= limits::kMaxCoordinate))
+          throwBadInput(where + ": reaches " + num(w[a]) + " on axis " + std::to_string(a) +
+                        "; the world must lie within +-" + num(limits::kMaxCoordinate));
+    }
+  }
+  // Directional rays start on a near plane just outside the world bounds: the bounds' corners, widened by the
+  // views' margin, bound them.
+  std::vector<glm::dvec3> boundsCorners;
+  if (!worldBounds.empty()) {
+    glm::dvec3 lo(worldBounds.min), hi(worldBounds.max), pad(0.01 * glm::length(hi - lo) + 1e-3);
+    lo -= pad;
+    hi += pad;
+    for (int c = 0; c < 8; ++c) boundsCorners.push_back({(c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z});
+  }
+  for (std::size_t li = 0; li < desc.lights.size(); ++li) {
+    const LightDesc& light = desc.lights[li];
+    if (!light.shadow) continue;
+    std::vector<glm::dvec3> origins =
+        light.type == LightType::Directional ? boundsCorners : std::vector<glm::dvec3>{glm::dvec3(light.position)};
+    for (std::size_t i = 0; i < instances.size(); ++i) {
+      const VoxelBox box = objects[instances[i].object].brickmap.bounds();
+      if (box.empty()) continue;
+      const glm::dmat4 worldToBrick = glm::inverse(instances[i].brickToWorld);
+      double worst = 0.0;
+      for (const glm::dvec3& o : origins) worst = std::max(worst, voxelsFromBox(glm::dvec3(worldToBrick * glm::dvec4(o, 1.0)), box));
+      if (worst > limits::kMaxRayVoxels)
+        throwBadInput(file + ": lights[" + std::to_string(li) + "]" +
+                      (light.type == LightType::Directional ? ": the scene's extent" : ".position: the light") + " is " +
+                      num(worst) + " voxels from instances[" + std::to_string(i) + "] (asset '" + desc.instances[i].asset +
+                      "'); rays are exact only within " + num(limits::kMaxRayVoxels) +
+                      " voxels of an object (move the light closer or use coarser voxels)");
+    }
+  }
+}
+
+}  // namespace
+
+Scene Scene::load(const std::filesystem::path& sceneFile) { return load(parseSceneFile(sceneFile)); }
+
+Scene Scene::load(SceneDesc desc) {
   Scene scene;
-  scene.desc_ = parseSceneFile(sceneFile);
+  scene.desc_ = std::move(desc);
+  const std::filesystem::path& sceneFile = scene.desc_.file;
   scene.objects_.reserve(scene.desc_.assets.size());
   for (const AssetDesc& asset : scene.desc_.assets) {
     LoadOptions options;
@@ -24,16 +97,26 @@ Scene Scene::load(const std::filesystem::path& sceneFile) {
     }
   }
   scene.instances_.reserve(scene.desc_.instances.size());
-  for (const InstanceDesc& inst : scene.desc_.instances) {
+  for (std::size_t i = 0; i < scene.desc_.instances.size(); ++i) {
+    const InstanceDesc& inst = scene.desc_.instances[i];
     SceneInstance placed;
     placed.object = std::uint32_t(inst.assetIndex);
     placed.brickToWorld = inst.transform * scene.objects_[inst.assetIndex].brickToObject;
+    // The product of two valid transforms can still collapse (a scale that cancels a voxel size is fine, but
+    // one whose product leaves float range is not): refuse it here, where the file and instance are known.
+    glm::dmat3 linear(placed.brickToWorld);
+    double det = glm::determinant(linear);
+    double cols = glm::length(linear[0]) * glm::length(linear[1]) * glm::length(linear[2]);
+    if (!std::isfinite(det) || !(std::abs(det) > 1e-12 * cols))
+      throwBadInput(sceneFile.string() + ": instances[" + std::to_string(i) + "]: the transform times asset '" +
+                    inst.asset + "''s voxel transform is singular (not invertible)");
     scene.instances_.push_back(placed);
   }
   std::vector<const Brickmap*> brickmaps;
   brickmaps.reserve(scene.objects_.size());
   for (const VoxelObject& object : scene.objects_) brickmaps.push_back(&object.brickmap);
   scene.data_ = SceneData::build(brickmaps, scene.instances_);
+  checkPlacement(scene.desc_, scene.objects_, scene.instances_, scene.data_.worldBounds);
   return scene;
 }
 

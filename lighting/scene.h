@@ -21,7 +21,11 @@ class Scene {
   // Parses the scene file, loads every asset once (object index = asset index in file order), places the
   // instances and builds the trace arrays. Preconditions: none; every problem is a vs::Error naming the file
   // and JSON path (an asset's load error keeps its kind and reads "<scene>: assets.<name>: <loader message>").
+  // Also refuses (BadInput) instances that reach beyond limits::kMaxCoordinate and shadowed lights farther
+  // than limits::kMaxRayVoxels from an object, in its voxels (voxel/valid_range.h).
   static Scene load(const std::filesystem::path& sceneFile);
+  // The same from a parsed description (parseSceneFile), e.g. after checking its paths.
+  static Scene load(SceneDesc desc);
 
   const SceneDesc& desc() const { return desc_; }
   std::span<const VoxelObject> objects() const { return objects_; }

@@ -190,6 +190,7 @@ struct VulkanTracer::Impl {
     variant(false, options.boxTable, false);  // the usual one, so that creation is timed and cached here
     pipelineStats.createMs = msSince(t0);
     pipelineStats.warmCache = cache->warm();
+    pipelineStats.cacheEmpty = cache->empty();
     pipelineStats.cacheFile = cache->file();
     pipelineStats.cacheSaved = cache->lastError().empty();
     pipelineStats.cacheError = cache->lastError();
