@@ -243,7 +243,12 @@ class Parser {
           Frame& f = frames_.back();
           f.lastKey = parsed.get<std::string>();
           std::string at = key(f.path, f.lastKey);
-          if (f.lastKey.find('\0') != std::string::npos) parser_.fail(at, "a key must not contain a NUL character");
+          if (std::size_t nul = f.lastKey.find('\0'); nul != std::string::npos) {
+            // Shown escaped: the raw NUL would end the message wherever it is printed as a C string.
+            std::string shown = f.lastKey;
+            for (std::size_t p = shown.find('\0'); p != std::string::npos; p = shown.find('\0', p)) shown.replace(p, 1, "\\u0000");
+            parser_.fail(key(f.path, shown), "a key must not contain a NUL character");
+          }
           if (!f.keys.insert(f.lastKey).second) parser_.fail(at, "duplicate key (each key may appear once per object)");
           break;
         }
