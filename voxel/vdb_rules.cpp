@@ -54,6 +54,10 @@ openvdb::GridPtrVec readVdbGrids(const std::string& path) {
     // temporary file (openvdb_temp_*) that it does not remove when reading fails.
     std::ifstream in(path, std::ios::binary);
     if (!in) throwBadInput(path + ": cannot open for reading");
+    // OpenVDB does not check every read: at the end of a truncated or lying file it would go on reading
+    // nothing (looping for minutes over a count it read as garbage, or sizing a string from an unset length).
+    // A stream that throws on the first failed read turns all of these into one error.
+    in.exceptions(std::ios::failbit | std::ios::badbit);
     openvdb::io::Stream stream(in, /*delayLoad=*/false);
     openvdb::GridPtrVecPtr grids = stream.getGrids();
     if (!grids) throwBadInput(path + ": no grids could be read");
@@ -64,6 +68,8 @@ openvdb::GridPtrVec readVdbGrids(const std::string& path) {
     throwBadInput(path + ": not a readable VDB file (" + printable(e.what()) + ")");
   } catch (const std::bad_alloc&) {
     throwBadInput(path + ": damaged VDB file (asks for more memory than is available)");
+  } catch (const std::ios_base::failure&) {
+    throwBadInput(path + ": truncated or damaged VDB file (it ends before the data it announces)");
   } catch (const std::exception& e) {
     throwBadInput(path + ": not a readable VDB file (" + printable(e.what()) + ")");
   }
