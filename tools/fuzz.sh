@@ -37,6 +37,7 @@ if [ ! -d "$assets/vdb" ]; then
 fi
 
 source "$root/tests/sanitizers/options.sh"
+export LSAN_OPTIONS="${LSAN_OPTIONS/lsan.supp/lsan-fuzz.supp}"
 if [ "$mode" = long ]; then
   budget=(-runs="${VOXSHADOW_FUZZ_RUNS:-1000000}")
 else
@@ -58,7 +59,7 @@ for name in "${names[@]}"; do
   for dir in "$root/tests/fuzz/seeds/$name" "$root/tests/fuzz/regressions/$name" "$assets/$name"; do
     [ -d "$dir" ] && seeds+=("$dir")
   done
-  flags=(-timeout=60 -rss_limit_mb=4096 -print_final_stats=1 -artifact_prefix="$work/artifacts/")
+  flags=(-timeout=20 -rss_limit_mb=4096 -print_final_stats=1 -artifact_prefix="$work/artifacts/")
   [ -f "$root/tests/fuzz/$name.dict" ] && flags+=(-dict="$root/tests/fuzz/$name.dict")
   # Megabyte .vdb files would make each execution slow; inputs up to 64 KiB reach the header, metadata,
   # transforms and topology, where hostile files do their damage. Longer seeds are left out, not cut to
