@@ -239,8 +239,13 @@ bool buildLaneTables(const SceneData& scene, LaneTables& tables, std::size_t max
 }
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+// clang ignores GCC's target pragma: it takes the same target through an attribute on every function.
+#ifdef __clang__
+#pragma clang attribute push(__attribute__((target("avx2,popcnt"))), apply_to = function)
+#else
 #pragma GCC push_options
 #pragma GCC target("avx2,popcnt")
+#endif
 
 namespace {
 
@@ -1043,7 +1048,11 @@ void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::sp
   });
 }
 
+#ifdef __clang__
+#pragma clang attribute pop
+#else
 #pragma GCC pop_options
+#endif
 #else
 void traceTilesLanes(gpu::SceneArrays&, const LaneTables&, std::span<const gpu::TraceView>, std::span<const TexelTile>,
                      std::vector<ShadowLayer>&) {

@@ -225,7 +225,11 @@ bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax,
   w.brickMask = uvec2(0u);
   w.firstBrick = 0u;
   w.brickCoord = ivec3(VS_NO_CELL);
-  w.brick = Brick(uvec2(0u), 0u, 0u);
+  // Member by member: C++ compilers without parenthesised aggregate initialisation (clang < 16) reject
+  // the GLSL constructor form Brick(...).
+  w.brick.cellMask = uvec2(0u);
+  w.brick.occupancy = 0u;
+  w.brick.payload = 0u;
   return true;
 }
 

@@ -1,0 +1,94 @@
+#!/usr/bin/env bash
+# Runs every libFuzzer target of ./build-asan (built by tools/run-sanitized.sh) in turn.
+#   tools/fuzz.sh           short mode: VOXSHADOW_FUZZ_SECONDS (default 45) seconds per target
+#   tools/fuzz.sh --long    1,000,000 executions per target (VOXSHADOW_FUZZ_RUNS overrides)
+#   tools/fuzz.sh ... NAME  only the targets named (scene_file, vdb, ...)
+# Each target fuzzes a working corpus in <build>/fuzz/<name>/corpus, seeded (read-only) from
+# tests/fuzz/seeds/<name>/, tests/fuzz/regressions/<name>/ and ../shared/assets/<name>/ where they exist.
+# A crash, leak, timeout or sanitizer report fails the script; the input is kept in
+# <build>/fuzz/<name>/artifacts/ (to be added to tests/fuzz/regressions/<name>/ once understood).
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build="${VOXSHADOW_ASAN_BUILD_DIR:-$root/build-asan}"
+assets="${VOXSHADOW_ASSETS:-$root/../shared/assets}"
+
+mode=short
+names=()
+for arg in "$@"; do
+  case "$arg" in
+    --long) mode=long ;;
+    -*) echo "fuzz: unknown option $arg" >&2; exit 2 ;;
+    *) names+=("$arg") ;;
+  esac
+done
+if [ ${#names[@]} -eq 0 ]; then
+  for exe in "$build"/tests/fuzz/fuzz_*; do
+    case "$(basename "$exe")" in fuzz_replay_*) continue ;; esac
+    [ -x "$exe" ] && names+=("$(basename "$exe" | sed 's/^fuzz_//')")
+  done
+fi
+if [ ${#names[@]} -eq 0 ]; then
+  echo "fuzz: no fuzz targets in $build/tests/fuzz (build with tools/run-sanitized.sh)" >&2
+  exit 2
+fi
+if [ ! -d "$assets/vdb" ]; then
+  echo "fuzz: third-party assets not found at $assets (expected ../shared/assets, or set VOXSHADOW_ASSETS)" >&2
+  exit 2
+fi
+
+source "$root/tests/sanitizers/options.sh"
+export LSAN_OPTIONS="${LSAN_OPTIONS/lsan.supp/lsan-fuzz.supp}"
+if [ "$mode" = long ]; then
+  budget=(-runs="${VOXSHADOW_FUZZ_RUNS:-1000000}")
+else
+  budget=(-max_total_time="${VOXSHADOW_FUZZ_SECONDS:-45}")
+fi
+
+status=0
+summary=()
+for name in "${names[@]}"; do
+  exe="$build/tests/fuzz/fuzz_$name"
+  [ -x "$exe" ] || { echo "fuzz: no target $exe" >&2; exit 2; }
+  work="$build/fuzz/$name"
+  mkdir -p "$work/corpus" "$work/artifacts"
+  # OpenVDB and the targets write temporary files into TMPDIR: keep them in the build tree, away from
+  # the shared assets and other processes.
+  rm -rf "$work/tmp"
+  mkdir -p "$work/tmp"
+  seeds=()
+  for dir in "$root/tests/fuzz/seeds/$name" "$root/tests/fuzz/regressions/$name" "$assets/$name"; do
+    [ -d "$dir" ] && seeds+=("$dir")
+  done
+  flags=(-timeout=20 -rss_limit_mb=4096 -print_final_stats=1 -artifact_prefix="$work/artifacts/")
+  [ -f "$root/tests/fuzz/$name.dict" ] && flags+=(-dict="$root/tests/fuzz/$name.dict")
+  # Megabyte .vdb files would make each execution slow; inputs up to 64 KiB reach the header, metadata,
+  # transforms and topology, where hostile files do their damage. Longer seeds are left out, not cut to
+  # length (libFuzzer would cut them): the small assets cover the same code paths.
+  max_len=""
+  [ "$name" = vdb ] && max_len=65536
+  if [ -n "$max_len" ]; then
+    rm -rf "$work/seeds"
+    mkdir -p "$work/seeds"
+    for dir in "${seeds[@]}"; do
+      find "$dir" -type f -size -$((max_len + 1))c -exec cp --backup=numbered -t "$work/seeds" {} +
+    done
+    seeds=("$work/seeds")
+    flags+=(-max_len="$max_len")
+  fi
+  echo "fuzz: $name ($mode): ${budget[*]}, corpus $work/corpus, seeds ${seeds[*]}"
+  rc=0
+  TMPDIR="$work/tmp" "$exe" "${flags[@]}" "${budget[@]}" "$work/corpus" "${seeds[@]}" >"$work/log.txt" 2>&1 || rc=$?
+  rm -rf "$work/tmp"
+  runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$work/log.txt" | tail -1)
+  secs=$(sed -n 's/^Done [0-9]* runs in \([0-9]*\) second.*/\1/p' "$work/log.txt" | tail -1)
+  if [ "$rc" -ne 0 ]; then
+    tail -n 60 "$work/log.txt" >&2
+    echo "fuzz: $name FAILED (status $rc); log $work/log.txt, input in $work/artifacts/" >&2
+    summary+=("$name: FAILED")
+    status=1
+  else
+    summary+=("$name: ${runs:-?} executions in ${secs:-?} s, corpus $(ls "$work/corpus" | wc -l) inputs")
+  fi
+done
+printf 'fuzz: %s\n' "${summary[@]}"
+exit "$status"
