@@ -1,4 +1,5 @@
 // Loading .vdb files: solid rules against OpenVDB itself, world mapping, palettes and bad input.
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -393,4 +394,32 @@ TEST(VdbLoad, ReadingMakesNoTemporaryCopies) {
   std::vector<std::string> left;
   for (const auto& e : fs::directory_iterator(tmp)) left.push_back(e.path().filename().string());
   EXPECT_EQ(left, std::vector<std::string>{}) << "temporary copies of damaged files were left behind";
+}
+
+// A .vdb cut short anywhere is refused, promptly: OpenVDB alone reads on past the end (a partial grid, a loop
+// over a garbage count, a string sized from an unset length).
+TEST(VdbLoad, TruncatedFilesAreRefused) {
+  const fs::path dir = vs::test::scratchDir("vdb_truncated");
+  for (const char* name : {"oiio_fog_sphere.vdb", "oiio_fog_sphere_Cd.vdb", "gaffer_levelset_sphere.vdb",
+                           "arnold_fog_torus.vdb"}) {
+    const fs::path source = vs::test::sharedAssets() / "vdb" / name;
+    std::ifstream in(source, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ASSERT_GT(bytes.size(), 4096u) << source;
+    for (std::size_t cut : {std::size_t(100), std::size_t(1000), std::size_t(65536), bytes.size() / 2, bytes.size() - 1}) {
+      if (cut >= bytes.size()) continue;
+      SCOPED_TRACE(std::string(name) + " cut to " + std::to_string(cut));
+      const fs::path file = dir / "cut.vdb";
+      std::ofstream(file, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(cut));
+      auto t0 = std::chrono::steady_clock::now();
+      try {
+        (void)vs::loadVdb(file.string());
+        ADD_FAILURE() << "a truncated file loaded";
+      } catch (const vs::Error& e) {
+        EXPECT_EQ(e.kind(), vs::ErrorKind::BadInput);
+        EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
+      }
+      EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0);
+    }
+  }
 }

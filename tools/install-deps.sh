@@ -13,6 +13,7 @@ packages=(
   libopenimageio-dev openimageio-tools
   libgtest-dev libcli11-dev nlohmann-json3-dev
   clang-14 libclang-rt-14-dev llvm-14
+  ccache
 )
 
 missing=()
