@@ -479,3 +479,27 @@ TEST(VoxBadInput, SceneGraphs) {
 
 }  // namespace
 }  // namespace vs
+
+#include "voxel/demo_world.h"
+
+namespace vs {
+namespace {
+
+TEST(VoxDemo, CratesAssetHasItsSceneGraph) {
+  const auto dir = test::scratchDir("vox_demo");
+  writeDemoWorld(dir);
+  VoxFile f = readVoxFile((dir / "crates.vox").string());
+  ASSERT_EQ(f.models.size(), 2u);
+  ASSERT_EQ(f.instances.size(), 4u);
+  EXPECT_TRUE(f.hasPaletteChunk);
+  // "top": (3 0 7) over a nested transform _r 24 (rows (-1 0 0)(0 0 1)(0 1 0)), crate 5^3 with pivot (2 2 2):
+  // local [-2,3]^3 -> x' = -x in [-3,2], y' = z, z' = y in [-2,3]; + (3 0 7): [0,5] x [-2,3] x [5,10],
+  // resting on the two crates below (z in [0,5]).
+  expectBox(f, f.instances[3], {0, 5, -3}, {5, 10, 2});
+  EXPECT_EQ(f.instances[3].name, "top");
+  VoxAsset a = buildVoxAsset(f);
+  EXPECT_EQ(a.objects.size(), 2u);  // three crates share one object
+}
+
+}  // namespace
+}  // namespace vs
