@@ -1,17 +1,93 @@
 // scene.cpp: loading a scene file into objects, instances and trace arrays; moving instances.
 #include "lighting/scene.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
+#include <vector>
 
 #include "voxel/error.h"
+#include "voxel/valid_range.h"
 #include "voxel/vox_scene.h"
 
 namespace vs {
 
-Scene Scene::load(const std::filesystem::path& sceneFile) {
+namespace {
+
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+// Chebyshev distance, in voxels, from a brick-space point to an object's voxel box.
+double voxelsFromBox(const glm::dvec3& p, const VoxelBox& box) {
+  double d = 0.0;
+  for (int a = 0; a < 3; ++a) d = std::max({d, double(box.min[a]) - p[a], p[a] - double(box.max[a])});
+  return d;
+}
+
+// The checks that need loaded objects: each instance's voxels stay within the coordinate range, and every
+// ray origin stays within limits::kMaxRayVoxels of every object, in that object's voxels (a spot light 1 km
+// from a 1 mm voxel plate would otherwise need float voxel coordinates beyond their exact range).
+// `sources` names each instance's scene-file instance (a .vox asset places several per scene instance).
+void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects, std::span<const SceneInstance> instances,
+                    std::span<const std::size_t> sources, const Aabb& worldBounds) {
+  const std::string file = desc.file.string();
+  auto named = [&](std::size_t i) {
+    return "instances[" + std::to_string(sources[i]) + "] (asset '" + desc.instances[sources[i]].asset + "')";
+  };
+  for (std::size_t i = 0; i < instances.size(); ++i) {
+    const VoxelBox box = objects[instances[i].object].brickmap.bounds();
+    const std::string where = file + ": " + named(i);
+    if (box.empty()) continue;
+    for (int c = 0; c < 8; ++c) {
+      glm::dvec4 p((c & 1) ? box.max.x : box.min.x, (c & 2) ? box.max.y : box.min.y, (c & 4) ? box.max.z : box.min.z, 1.0);
+      glm::dvec3 w(instances[i].brickToWorld * p);
+      for (int a = 0; a < 3; ++a)
+        if (!(std::abs(w[a]) <= limits::kMaxCoordinate))
+          throwBadInput(where + ": reaches " + num(w[a]) + " on axis " + std::to_string(a) +
+                        "; the world must lie within +-" + num(limits::kMaxCoordinate));
+    }
+  }
+  // Directional rays start on a near plane just outside the world bounds: the bounds' corners, widened by the
+  // views' margin, bound them.
+  std::vector<glm::dvec3> boundsCorners;
+  if (!worldBounds.empty()) {
+    glm::dvec3 lo(worldBounds.min), hi(worldBounds.max), pad(0.01 * glm::length(hi - lo) + 1e-3);
+    lo -= pad;
+    hi += pad;
+    for (int c = 0; c < 8; ++c) boundsCorners.push_back({(c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z});
+  }
+  for (std::size_t li = 0; li < desc.lights.size(); ++li) {
+    const LightDesc& light = desc.lights[li];
+    if (!light.shadow) continue;
+    std::vector<glm::dvec3> origins =
+        light.type == LightType::Directional ? boundsCorners : std::vector<glm::dvec3>{glm::dvec3(light.position)};
+    for (std::size_t i = 0; i < instances.size(); ++i) {
+      const VoxelBox box = objects[instances[i].object].brickmap.bounds();
+      if (box.empty()) continue;
+      const glm::dmat4 worldToBrick = glm::inverse(instances[i].brickToWorld);
+      double worst = 0.0;
+      for (const glm::dvec3& o : origins) worst = std::max(worst, voxelsFromBox(glm::dvec3(worldToBrick * glm::dvec4(o, 1.0)), box));
+      if (worst > limits::kMaxRayVoxels)
+        throwBadInput(file + ": lights[" + std::to_string(li) + "]" +
+                      (light.type == LightType::Directional ? ": the scene's extent" : ".position: the light") + " is " +
+                      num(worst) + " voxels from " + named(i) + "; rays are exact only within " + num(limits::kMaxRayVoxels) +
+                      " voxels of an object (move the light closer or use coarser voxels)");
+    }
+  }
+}
+
+}  // namespace
+
+Scene Scene::load(const std::filesystem::path& sceneFile) { return load(parseSceneFile(sceneFile)); }
+
+Scene Scene::load(SceneDesc desc) {
   Scene scene;
-  scene.desc_ = parseSceneFile(sceneFile);
+  scene.desc_ = std::move(desc);
+  const std::filesystem::path& sceneFile = scene.desc_.file;
   scene.objects_.reserve(scene.desc_.assets.size());
   // Per asset: each placement's object (absolute index) and brick-to-asset map.
   std::vector<std::vector<std::pair<std::uint32_t, glm::dmat4>>> placements(scene.desc_.assets.size());
@@ -51,6 +127,14 @@ Scene Scene::load(const std::filesystem::path& sceneFile) {
       SceneInstance placed;
       placed.object = object;
       placed.brickToWorld = inst.transform * brickToAsset;
+      // The product of two valid transforms can still collapse (a scale that cancels a voxel size is fine, but
+      // one whose product leaves float range is not): refuse it here, where the file and instance are known.
+      glm::dmat3 linear(placed.brickToWorld);
+      double det = glm::determinant(linear);
+      double cols = glm::length(linear[0]) * glm::length(linear[1]) * glm::length(linear[2]);
+      if (!std::isfinite(det) || !(std::abs(det) > 1e-12 * cols))
+        throwBadInput(sceneFile.string() + ": instances[" + std::to_string(s) + "]: the transform times asset '" +
+                      inst.asset + "''s voxel transform is singular (not invertible)");
       scene.instances_.push_back(placed);
       scene.brickToAsset_.push_back(brickToAsset);
       scene.instanceSource_.push_back(s);
@@ -61,6 +145,7 @@ Scene Scene::load(const std::filesystem::path& sceneFile) {
   brickmaps.reserve(scene.objects_.size());
   for (const VoxelObject& object : scene.objects_) brickmaps.push_back(&object.brickmap);
   scene.data_ = SceneData::build(brickmaps, scene.instances_);
+  checkPlacement(scene.desc_, scene.objects_, scene.instances_, scene.instanceSource_, scene.data_.worldBounds);
   return scene;
 }
 

@@ -24,7 +24,11 @@ class Scene {
   // asset becomes one instance per placement, its transform applied to the whole scene graph) and builds
   // the trace arrays. Preconditions: none; every problem is a vs::Error naming the file and JSON path (an
   // asset's load error keeps its kind and reads "<scene>: assets.<name>: <loader message>").
+  // Also refuses (BadInput) instances that reach beyond limits::kMaxCoordinate and shadowed lights farther
+  // than limits::kMaxRayVoxels from an object, in its voxels (voxel/valid_range.h).
   static Scene load(const std::filesystem::path& sceneFile);
+  // The same from a parsed description (parseSceneFile), e.g. after checking its paths.
+  static Scene load(SceneDesc desc);
 
   struct ObjectRange {
     std::size_t first = 0, count = 0;  // objects()[first, first + count)

@@ -3,17 +3,21 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cfloat>
 #include <cmath>
 #include <fstream>
 #include <initializer_list>
 #include <map>
+#include <set>
 #include <sstream>
+#include <vector>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 
 #include "compute/shared/trace_view.h"
 #include "voxel/error.h"
+#include "voxel/valid_range.h"
 
 namespace vs {
 
@@ -97,6 +101,26 @@ class Parser {
     if (!j.is_number()) fail(path, "must be a number, not " + typeName(j));
     double v = j.get<double>();
     if (!std::isfinite(v)) fail(path, "must be a finite number");
+    // Every number ends up as a float somewhere; one that rounds to infinity there is refused here.
+    if (std::abs(v) > double(FLT_MAX)) fail(path, "must be a finite 32-bit float (magnitude at most 3.4e38), not " + fmt(v));
+    return v;
+  }
+
+  double inRange(double v, const std::string& path, double lo, double hi, const char* what) const {
+    if (!(v >= lo && v <= hi)) fail(path, std::string(what) + " must be between " + fmt(lo) + " and " + fmt(hi) + ", not " + fmt(v));
+    return v;
+  }
+
+  // A world position: each component within the valid coordinate range (voxel/valid_range.h).
+  glm::dvec3 position(const Json& j, const std::string& path) const {
+    glm::dvec3 p = vec3(j, path);
+    for (int a = 0; a < 3; ++a) inRange(p[a], index(path, std::size_t(a)), -limits::kMaxCoordinate, limits::kMaxCoordinate, "a coordinate");
+    return p;
+  }
+
+  float distance(const Json& j, const std::string& path) const {
+    float v = positive(j, path);
+    if (v > limits::kMaxDistance) fail(path, "must be at most " + fmt(limits::kMaxDistance) + ", not " + fmt(v));
     return v;
   }
 
@@ -136,6 +160,8 @@ class Parser {
   glm::vec3 color(const Json& obj, const std::string& path, const char* k, glm::vec3 fallback) const {
     glm::vec3 c = vec3(obj, path, k, fallback);
     if (c.x < 0.0f || c.y < 0.0f || c.z < 0.0f) fail(key(path, k), "components must not be negative");
+    if (std::max({c.x, c.y, c.z}) > limits::kMaxRadiometric)
+      fail(key(path, k), "components must be at most " + fmt(limits::kMaxRadiometric));
     return c;
   }
 
@@ -145,16 +171,21 @@ class Parser {
     return float(v);
   }
 
-  float nonNegative(const Json& obj, const std::string& path, const char* k, float fallback) const {
+  float nonNegative(const Json& obj, const std::string& path, const char* k, float fallback,
+                    double maxValue = limits::kMaxRadiometric) const {
     float v = number(obj, path, k, fallback);
     if (v < 0.0f) fail(key(path, k), "must not be negative, not " + fmt(v));
+    if (v > maxValue) fail(key(path, k), "must be at most " + fmt(maxValue) + ", not " + fmt(v));
     return v;
   }
 
   SceneDesc parse(const std::string& text) {
     Json root;
     try {
-      root = Json::parse(text);
+      KeyTracker tracker(*this);
+      root = Json::parse(text, [&tracker](int, nlohmann::json::parse_event_t event, Json& parsed) {
+        return tracker.onEvent(event, parsed);
+      });
     } catch (const nlohmann::json::parse_error& e) {
       syntaxError(text, e.byte, e.what());
     } catch (const nlohmann::json::exception& e) {
@@ -190,6 +221,66 @@ class Parser {
     return scene;
   }
 
+
+  // Follows the parser through the document to refuse what nlohmann accepts silently: a key given twice in
+  // one object (the last would win) and NUL bytes in keys or strings (names and paths would disagree
+  // between the EXR, the sidecar and the file system). Errors name the JSON path.
+  class KeyTracker {
+   public:
+    explicit KeyTracker(const Parser& parser) : parser_(parser) {}
+
+    bool onEvent(nlohmann::json::parse_event_t event, const Json& parsed) {
+      using E = nlohmann::json::parse_event_t;
+      switch (event) {
+        case E::object_start:
+        case E::array_start:
+          frames_.push_back({event == E::object_start, childPath(), {}, {}, 0});
+          break;
+        case E::object_end:
+        case E::array_end:
+          frames_.pop_back();
+          if (!frames_.empty() && !frames_.back().isObject) ++frames_.back().count;
+          break;
+        case E::key: {
+          Frame& f = frames_.back();
+          f.lastKey = parsed.get<std::string>();
+          std::string at = key(f.path, f.lastKey);
+          if (std::size_t nul = f.lastKey.find('\0'); nul != std::string::npos) {
+            // Shown escaped: the raw NUL would end the message wherever it is printed as a C string.
+            std::string shown = f.lastKey;
+            for (std::size_t p = shown.find('\0'); p != std::string::npos; p = shown.find('\0', p)) shown.replace(p, 1, "\\u0000");
+            parser_.fail(key(f.path, shown), "a key must not contain a NUL character");
+          }
+          if (!f.keys.insert(f.lastKey).second) parser_.fail(at, "duplicate key (each key may appear once per object)");
+          break;
+        }
+        case E::value:
+          if (parsed.is_string() && parsed.get_ref<const std::string&>().find('\0') != std::string::npos)
+            parser_.fail(childPath(), "must not contain a NUL character");
+          if (!frames_.empty() && !frames_.back().isObject) ++frames_.back().count;
+          break;
+      }
+      return true;
+    }
+
+   private:
+    struct Frame {
+      bool isObject;
+      std::string path;
+      std::set<std::string> keys;
+      std::string lastKey;
+      std::size_t count;
+    };
+    // The path of the value about to start in the innermost container.
+    std::string childPath() const {
+      if (frames_.empty()) return "";
+      const Frame& f = frames_.back();
+      return f.isObject ? key(f.path, f.lastKey) : index(f.path, f.count);
+    }
+    const Parser& parser_;
+    std::vector<Frame> frames_;
+  };
+
  private:
   [[noreturn]] void syntaxError(const std::string& text, std::size_t byte, const std::string& what) const {
     // nlohmann counts bytes from 1 and points just past the offending character.
@@ -223,8 +314,7 @@ class Parser {
       else checkKeys(a, path, {"file", "grid", "density_threshold", "color"});
       std::filesystem::path resolved = file;
       if (resolved.is_relative()) resolved = file_.parent_path() / resolved;
-      std::error_code ec;
-      if (!std::filesystem::is_regular_file(resolved, ec)) fail(key(path, "file"), "file not found: " + resolved.string());
+      if (std::string kind = fileKindProblem(resolved); !kind.empty()) fail(key(path, "file"), resolved.string() + ": " + kind);
       asset.file = resolved;
       if (asset.vox) {
         parseVoxAsset(a, path, asset);
@@ -258,9 +348,10 @@ class Parser {
   void parseVoxAsset(const Json& a, const std::string& path, AssetDesc& asset) const {
     if (auto v = a.find("voxel_size"); v != a.end()) {
       asset.voxelSize = number(*v, key(path, "voxel_size"));
-      // Bounded like any other scale, so that the device's float arithmetic stays exact.
-      if (!(asset.voxelSize >= 1e-4 && asset.voxelSize <= 1e4))
-        fail(key(path, "voxel_size"), "must be between 1e-4 and 1e4, not " + fmt(asset.voxelSize));
+      // Bounded like a .vdb asset's voxel size (voxel/valid_range.h).
+      if (!(asset.voxelSize >= limits::kMinVoxelSize && asset.voxelSize <= limits::kMaxVoxelSize))
+        fail(key(path, "voxel_size"), "must be between " + fmt(limits::kMinVoxelSize) + " and " +
+                                          fmt(limits::kMaxVoxelSize) + ", not " + fmt(asset.voxelSize));
     }
     if (auto m = a.find("model"); m != a.end()) {
       if (m->is_string()) {
@@ -310,15 +401,32 @@ class Parser {
         if (desc.transform[0][3] != 0.0 || desc.transform[1][3] != 0.0 || desc.transform[2][3] != 0.0 ||
             desc.transform[3][3] != 1.0)
           fail(mp, "must be affine: elements 3, 7, 11, 15 (the last row) must be 0, 0, 0, 1");
+        for (int r = 0; r < 3; ++r)
+          inRange(desc.transform[3][r], index(mp, std::size_t(12 + r)), -limits::kMaxCoordinate, limits::kMaxCoordinate,
+                  "a translation");
+        for (int c = 0; c < 3; ++c) {
+          double len = glm::length(glm::dvec3(desc.transform[c]));
+          if (!(len >= limits::kMinScale && len <= limits::kMaxScale))
+            fail(mp, "column " + std::to_string(c) + " has length " + fmt(len) + "; each axis's scale must be between " +
+                         fmt(limits::kMinScale) + " and " + fmt(limits::kMaxScale));
+        }
         checkInvertible(desc.transform, mp);
       } else {
         glm::dvec3 t(0.0), r(0.0), s(1.0);
-        if (auto it = inst.find("translate"); it != inst.end()) t = vec3(*it, key(path, "translate"));
-        if (auto it = inst.find("rotate_deg"); it != inst.end()) r = vec3(*it, key(path, "rotate_deg"));
+        if (auto it = inst.find("translate"); it != inst.end()) t = position(*it, key(path, "translate"));
+        if (auto it = inst.find("rotate_deg"); it != inst.end()) {
+          r = vec3(*it, key(path, "rotate_deg"));
+          for (int a = 0; a < 3; ++a)
+            inRange(r[a], index(key(path, "rotate_deg"), std::size_t(a)), -limits::kMaxAngleDeg, limits::kMaxAngleDeg, "an angle");
+        }
         if (auto it = inst.find("scale"); it != inst.end()) {
           if (it->is_number()) s = glm::dvec3(number(*it, key(path, "scale")));
           else if (it->is_array()) s = vec3(*it, key(path, "scale"));
           else fail(key(path, "scale"), "must be a number or an array of 3 numbers, not " + typeName(*it));
+          for (int a = 0; a < 3; ++a)
+            if (!(std::abs(s[a]) >= limits::kMinScale && std::abs(s[a]) <= limits::kMaxScale))
+              fail(key(path, "scale"), "each factor's magnitude must be between " + fmt(limits::kMinScale) + " and " +
+                                           fmt(limits::kMaxScale) + ", not " + fmt(s[a]));
         }
         glm::dmat4 tr = glm::translate(glm::dmat4(1.0), t);
         tr = glm::rotate(tr, glm::radians(r.z), glm::dvec3(0, 0, 1));
@@ -344,8 +452,8 @@ class Parser {
     requireObject(cam, path);
     checkKeys(cam, path, {"position", "target", "up", "fov_deg", "near", "far", "width", "height"});
     CameraDesc c;
-    c.position = glm::vec3(vec3(required(cam, path, "position"), key(path, "position")));
-    c.target = glm::vec3(vec3(required(cam, path, "target"), key(path, "target")));
+    c.position = glm::vec3(position(required(cam, path, "position"), key(path, "position")));
+    c.target = glm::vec3(position(required(cam, path, "target"), key(path, "target")));
     if (c.position == c.target) fail(key(path, "target"), "must differ from position");
     if (auto it = cam.find("up"); it != cam.end()) c.up = direction(*it, key(path, "up"));
     if (glm::length(glm::cross(glm::normalize(c.target - c.position), c.up)) < 1e-6f)
@@ -354,8 +462,8 @@ class Parser {
       c.fovDeg = float(number(*it, key(path, "fov_deg")));
       if (!(c.fovDeg > 0.0f && c.fovDeg < 180.0f)) fail(key(path, "fov_deg"), "must be between 0 and 180 (exclusive), not " + fmt(c.fovDeg));
     }
-    if (auto it = cam.find("near"); it != cam.end()) c.nearPlane = positive(*it, key(path, "near"));
-    if (auto it = cam.find("far"); it != cam.end()) c.farPlane = positive(*it, key(path, "far"));
+    if (auto it = cam.find("near"); it != cam.end()) c.nearPlane = distance(*it, key(path, "near"));
+    if (auto it = cam.find("far"); it != cam.end()) c.farPlane = distance(*it, key(path, "far"));
     if (!(c.farPlane > c.nearPlane)) fail(key(path, "far"), "must be greater than near");
     if (auto it = cam.find("width"); it != cam.end()) c.width = positiveInt(*it, key(path, "width"));
     if (auto it = cam.find("height"); it != cam.end()) c.height = positiveInt(*it, key(path, "height"));
@@ -365,6 +473,7 @@ class Parser {
   int positiveInt(const Json& j, const std::string& path) const {
     int v = integer(j, path);
     if (v <= 0) fail(path, "must be greater than 0, not " + std::to_string(v));
+    if (v > limits::kMaxImageSide) fail(path, "must be at most " + std::to_string(limits::kMaxImageSide) + ", not " + std::to_string(v));
     return v;
   }
 
@@ -402,8 +511,8 @@ class Parser {
       if (light.type != LightType::Point)
         light.direction = direction(required(lj, path, "direction"), key(path, "direction"));
       if (light.type != LightType::Directional) {
-        light.position = glm::vec3(vec3(required(lj, path, "position"), key(path, "position")));
-        light.range = positive(required(lj, path, "range"), key(path, "range"));
+        light.position = glm::vec3(position(required(lj, path, "position"), key(path, "position")));
+        light.range = distance(required(lj, path, "range"), key(path, "range"));
       }
       if (light.type == LightType::Spot) {
         std::string op = key(path, "outer_cone_deg");
@@ -424,6 +533,27 @@ class Parser {
       if (auto it = lj.find("shadow"); it != lj.end())
         light.shadow = parseShadow(*it, key(path, "shadow"), light.type, defaultMaxDistance);
       scene.lights.push_back(std::move(light));
+    }
+    checkLayerNames(scene);
+  }
+
+  // Layer names must be unique in the EXR; a light named "lamp.face+x" beside a point light "lamp" would
+  // give two layers one name. Found here, before any work, rather than when the file is written.
+  void checkLayerNames(const SceneDesc& scene) const {
+    std::map<std::string, std::size_t> owner;
+    for (std::size_t i = 0; i < scene.lights.size(); ++i) {
+      const LightDesc& l = scene.lights[i];
+      std::vector<std::string> names;
+      if (l.type == LightType::Point)
+        for (const char* face : {"+x", "-x", "+y", "-y", "+z", "-z"}) names.push_back(l.name + ".face" + face);
+      else
+        names.push_back(l.name);
+      for (const std::string& n : names) {
+        auto [it, inserted] = owner.emplace(n, i);
+        if (!inserted && it->second != i)
+          fail(key(index("lights", i), "name"), "its shadow layer \"" + n + "\" has the same name as a layer of lights[" +
+                                                  std::to_string(it->second) + "]");
+      }
     }
   }
 
@@ -452,7 +582,7 @@ class Parser {
       s.lambda = float(number(*it, key(path, "lambda")));
       if (s.lambda < 0.0f || s.lambda > 1.0f) fail(key(path, "lambda"), "must be between 0 and 1, not " + fmt(s.lambda));
     }
-    if (auto it = sj.find("max_distance"); it != sj.end()) s.maxDistance = positive(*it, key(path, "max_distance"));
+    if (auto it = sj.find("max_distance"); it != sj.end()) s.maxDistance = distance(*it, key(path, "max_distance"));
     if (auto it = sj.find("filter"); it != sj.end()) {
       std::string f = string(*it, key(path, "filter"));
       bool found = false;
@@ -466,7 +596,9 @@ class Parser {
       if (!found) fail(key(path, "filter"), "unknown filter \"" + f + "\" (expected hard, pcf3, pcf5, poisson16 or pcss)");
     }
     s.depthBias = number(sj, path, "depth_bias", s.depthBias);
-    s.normalBias = nonNegative(sj, path, "normal_bias", s.normalBias);
+    if (std::abs(s.depthBias) > limits::kMaxDepthBias)
+      fail(key(path, "depth_bias"), "must be between " + fmt(-limits::kMaxDepthBias) + " and " + fmt(limits::kMaxDepthBias) + ", not " + fmt(s.depthBias));
+    s.normalBias = nonNegative(sj, path, "normal_bias", s.normalBias, limits::kMaxNormalBias);
     if (auto it = sj.find("depth_point"); it != sj.end()) {
       std::string d = string(*it, key(path, "depth_point"));
       if (d == "entry") s.depthPoint = gpu::VS_DEPTH_POINT_ENTRY;
@@ -486,12 +618,34 @@ SceneDesc parseSceneJson(const std::string& text, const std::filesystem::path& f
 }
 
 SceneDesc parseSceneFile(const std::filesystem::path& file) {
+  if (std::string kind = fileKindProblem(file); !kind.empty()) throwBadInput(file.string() + ": " + kind);
+  std::error_code ec;
+  const std::uintmax_t bytes = std::filesystem::file_size(file, ec);
+  if (ec) throwBadInput(file.string() + ": cannot read the scene file (" + ec.message() + ")");
+  if (bytes > limits::kMaxSceneFileBytes)
+    throwBadInput(file.string() + ": " + std::to_string(bytes) + " bytes; a scene file may have at most " +
+                  std::to_string(limits::kMaxSceneFileBytes) + " (it names its assets, it does not hold them)");
   std::ifstream in(file, std::ios::binary);
   if (!in) throwBadInput(file.string() + ": cannot open the scene file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throwBadInput(file.string() + ": cannot read the scene file");
-  return parseSceneJson(text.str(), file);
+  std::string text(bytes, '\0');
+  in.read(text.data(), std::streamsize(bytes));
+  if (in.bad() || std::uintmax_t(in.gcount()) != bytes) throwBadInput(file.string() + ": cannot read the scene file");
+  return parseSceneJson(text, file);
+}
+
+std::string fileKindProblem(const std::filesystem::path& file) {
+  std::error_code ec;
+  std::filesystem::file_status st = std::filesystem::status(file, ec);
+  switch (st.type()) {
+    case std::filesystem::file_type::regular: return {};
+    case std::filesystem::file_type::not_found: return "no such file";
+    case std::filesystem::file_type::directory: return "is a directory, not a file";
+    case std::filesystem::file_type::fifo: return "is a FIFO, not a regular file";
+    case std::filesystem::file_type::socket: return "is a socket, not a regular file";
+    case std::filesystem::file_type::block:
+    case std::filesystem::file_type::character: return "is a device, not a regular file";
+    default: return ec ? "cannot be read (" + ec.message() + ")" : "is not a regular file";
+  }
 }
 
 }  // namespace vs

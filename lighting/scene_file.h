@@ -87,16 +87,22 @@ struct SceneDesc {
   std::vector<LightDesc> lights;
 };
 
-// Reads and parses a scene file. Preconditions: none; an unreadable file is vs::Error(BadInput), and so is
-// every problem parseSceneJson reports.
+// Reads and parses a scene file. Preconditions: none; a missing, unreadable or non-regular file, or one larger
+// than limits::kMaxSceneFileBytes, is vs::Error(BadInput), and so is every problem parseSceneJson reports.
 SceneDesc parseSceneFile(const std::filesystem::path& file);
 
 // Parses scene JSON text. `file` names the source in messages ("<file>: <json path>: <problem>") and its
 // directory resolves relative asset paths. Every asset file must exist. Throws vs::Error(BadInput) on the
 // first problem: syntax (with line and column), unknown keys, wrong types, missing required keys, values
-// out of range, non-finite numbers, singular transforms, unknown assets/filters/depth points, duplicate
-// light names, a missing or unsupported version.
+// out of range (voxel/valid_range.h), non-finite numbers or numbers beyond float range, singular
+// transforms, unknown assets/filters/depth points, duplicate keys (duplicate asset names among them), NUL
+// characters in keys or strings, duplicate light or layer names, a missing or unsupported version.
 SceneDesc parseSceneJson(const std::string& text, const std::filesystem::path& file);
+
+// Why `file` cannot be read as an input ("no such file", "is a directory, not a file", "is a FIFO, ...");
+// empty for a regular file (symlinks followed). Inputs are only ever read from regular files, so that a
+// FIFO or a device can neither hang a command nor feed it without end.
+std::string fileKindProblem(const std::filesystem::path& file);
 
 }  // namespace vs
 

@@ -63,7 +63,7 @@ TEST(BakeOutput, ExrRoundTripsEveryTexelAndAttribute) {
   auto views = threeViews();
   vs::writeShadowExr(exr, views);
   ASSERT_TRUE(fs::is_regular_file(exr));
-  ASSERT_TRUE(fs::is_regular_file(dir / "shadows.json"));
+  ASSERT_TRUE(fs::is_regular_file(dir / "shadows.exr.json"));
   EXPECT_EQ(dirEntries(dir).size(), 2u) << "temporaries left behind";
 
   auto in = OIIO::ImageInput::open(exr.string());
@@ -121,7 +121,7 @@ TEST(BakeOutput, ExrRoundTripsEveryTexelAndAttribute) {
   }
   in->close();
 
-  std::ifstream sidecar(dir / "shadows.json");
+  std::ifstream sidecar(dir / "shadows.exr.json");
   nlohmann::json j = nlohmann::json::parse(sidecar);
   EXPECT_EQ(j.at("version"), 1);
   ASSERT_EQ(j.at("views").size(), 3u);
@@ -183,7 +183,7 @@ TEST(BakeOutput, FailureMidWriteLeavesNothing) {
   fs::path dir = vs::test::scratchDir("bake_output_midwrite");
   // An earlier good bake must survive a failed one untouched only if the failure precedes the renames;
   // here the outputs did not exist before, so after the failure nothing may exist.
-  const std::array<fs::path, 2> outputs = {dir / "a.exr", dir / "a.json"};
+  const std::array<fs::path, 2> outputs = {dir / "a.exr", dir / "a.exr.json"};
   std::vector<fs::path> temps;
   EXPECT_THROW(vs::writeAtomically(outputs,
                                    [&](std::size_t index, const fs::path& tmp) {

@@ -186,7 +186,7 @@ TEST(Cli, BakeOfBrokenSceneExitsTwoAndWritesNothing) {
     EXPECT_TRUE(contains(out, c.name)) << out;
     EXPECT_TRUE(contains(out, c.jsonPath)) << out;
     EXPECT_FALSE(fs::exists(exr));
-    EXPECT_FALSE(fs::exists(fs::path(exr).replace_extension(".json")));
+    EXPECT_FALSE(fs::exists(fs::path(exr.string() + ".json")));
   }
   // A scene naming a grid its file lacks.
   const fs::path scene = dir / "unknown_grid.json";
@@ -203,7 +203,7 @@ TEST(Cli, BakeOfBrokenSceneExitsTwoAndWritesNothing) {
   EXPECT_TRUE(contains(out, "assets.ball")) << out;
   EXPECT_TRUE(contains(out, "truncated.vdb")) << out;
   EXPECT_FALSE(fs::exists(dir / "d.exr"));
-  EXPECT_FALSE(fs::exists(dir / "d.json"));
+  EXPECT_FALSE(fs::exists(dir / "d.exr.json"));
 }
 
 TEST(Cli, BakeToUnusableOutputExitsTwoAndWritesNothing) {
@@ -239,7 +239,7 @@ TEST(Cli, BakeWritesExrSidecarAndPreview) {
             0)
       << out;
   EXPECT_EQ(subimageNames(dir / "out.exr"), std::vector<std::string>{"sun"});
-  EXPECT_TRUE(fs::is_regular_file(dir / "out.json"));
+  EXPECT_TRUE(fs::is_regular_file(dir / "out.exr.json"));
   EXPECT_TRUE(fs::is_regular_file(dir / "out.png"));
 }
 
@@ -249,7 +249,7 @@ TEST(Cli, DemoWritesAssetsAndBakedShadows) {
   ASSERT_EQ(cli("demo --backend cpu --out " + quote(dir / "demo"), out), 0) << out;
   const fs::path exr = dir / "demo" / "demo_shadows.exr";
   ASSERT_TRUE(fs::is_regular_file(exr)) << out;
-  EXPECT_TRUE(fs::is_regular_file(dir / "demo" / "demo_shadows.json"));
+  EXPECT_TRUE(fs::is_regular_file(dir / "demo" / "demo_shadows.exr.json"));
   EXPECT_TRUE(fs::is_regular_file(dir / "demo" / "demo_shadows.png"));
   EXPECT_TRUE(contains(out, ".vdb")) << out;  // the assets' info was printed
 

@@ -335,7 +335,10 @@ TEST(VulkanTracer, PipelineCacheIsWrittenAndReused) {
     expectNoValidationMessages(cold);
   }
   vs::VulkanTracer warm(o);
-  EXPECT_TRUE(warm.pipelineStats().warmCache);
+  // A driver that caches pipelines gives a warm cache; one that keeps only the header (lavapipe) an empty one.
+  const bool headerOnly = std::filesystem::file_size(warm.pipelineStats().cacheFile) <= 32u;
+  EXPECT_EQ(warm.pipelineStats().warmCache, !headerOnly);
+  EXPECT_EQ(warm.pipelineStats().cacheEmpty, headerOnly);
   EXPECT_GE(warm.pipelineStats().createMs, 0.0);
   // Leftover temporary files would mean the write was not atomic.
   for (const auto& entry : std::filesystem::directory_iterator(o.cacheDir))

@@ -40,8 +40,9 @@ void validateBakedViews(std::span<const BakedView> views) {
 }
 
 fs::path sidecarPath(const fs::path& exr) {
+  // Appended, never replacing the extension: "x/demo.exr" must not become the scene "x/demo.json".
   fs::path json = exr;
-  json.replace_extension(".json");
+  json += ".json";
   return json;
 }
 
@@ -129,51 +130,43 @@ float displayValue(const BakedView& v, float texel) {
   return std::clamp(scaled, 0.0f, 1.0f);
 }
 
-}  // namespace
-
-void writeShadowExr(const fs::path& out, std::span<const BakedView> views) {
-  validateBakedViews(views);
-  if (out.extension() != ".exr") throwBadInput(out.string() + ": the shadow file must have the extension .exr");
-  checkOutputDirectory(out);
-  const std::array<fs::path, 2> outputs = {out, sidecarPath(out)};
-  writeAtomically(outputs, [&](std::size_t index, const fs::path& tmp) {
-    if (index == 0) {
-      writeExrFile(out, tmp, views);
-    } else {
-      writeTextFile(outputs[1], tmp, sidecarJson(views).dump(2) + "\n");
-    }
-  });
-}
-
-void writeContactSheetPng(const fs::path& out, std::span<const BakedView> views) {
-  validateBakedViews(views);
-  if (out.extension() != ".png") throwBadInput(out.string() + ": the preview must have the extension .png");
-  checkOutputDirectory(out);
-
-  // Cells at most kCell texels wide or high, so a sheet of many 2048² layers stays viewable.
-  constexpr int kCell = 256, kPad = 8, kLabel = 20;
+// The contact sheet as an image: a grid of cells, one per view, whose size shrinks with the view count so
+// that the sheet never exceeds kSheetMax pixels a side (memory and PNG size stay bounded for any count).
+OIIO::ImageBuf contactSheet(std::span<const BakedView> views) {
+  constexpr int kSheetMax = 4096, kMaxCell = 256, kPad = 8, kLabel = 20, kMinLabelledCell = 64;
   const int n = int(views.size());
-  const int columns = int(std::ceil(std::sqrt(double(n))));
+  const int columns = std::max(1, int(std::ceil(std::sqrt(double(n)))));
   const int rows = (n + columns - 1) / columns;
-  const int sheetW = columns * (kCell + kPad) + kPad;
-  const int sheetH = rows * (kCell + kLabel + kPad) + kPad;
-  OIIO::ImageBuf sheet(OIIO::ImageSpec(sheetW, sheetH, 3, OIIO::TypeDesc::FLOAT));
+  // Labels need room; below kMinLabelledCell pixels a cell is too small to name its view legibly.
+  int cell = std::min(kMaxCell, (kSheetMax - kPad) / columns - kPad);
+  const bool labelled = cell >= kMinLabelledCell;
+  const int label = labelled ? kLabel : 0;
+  const int pad = cell >= kMinLabelledCell ? kPad : 1;
+  cell = std::max(1, std::min(cell, (kSheetMax - pad) / rows - pad - label));
+  const int sheetW = columns * (cell + pad) + pad;
+  const int sheetH = rows * (cell + label + pad) + pad;
+  if (sheetW > kSheetMax || sheetH > kSheetMax)
+    throwBadInput("the preview cannot show " + std::to_string(n) + " views (at most " +
+                  std::to_string((kSheetMax / 2) * (kSheetMax / 2)) + ")");
+  OIIO::ImageBuf sheet(OIIO::ImageSpec(sheetW, sheetH, 3, OIIO::TypeDesc::UINT8));
   const float background[3] = {0.12f, 0.12f, 0.14f};
   OIIO::ImageBufAlgo::fill(sheet, background);
 
-  bool labels = true;
+  bool labels = labelled;
   for (int i = 0; i < n; ++i) {
     const BakedView& v = views[std::size_t(i)];
-    const int x0 = kPad + (i % columns) * (kCell + kPad);
-    const int y0 = kPad + (i / columns) * (kCell + kLabel + kPad);
-    const double scale = std::min(1.0, double(kCell) / double(std::max(v.width, v.height)));
+    const int x0 = pad + (i % columns) * (cell + pad);
+    const int y0 = pad + (i / columns) * (cell + label + pad);
+    const double scale = std::min(1.0, double(cell) / double(std::max(v.width, v.height)));
     const int cw = std::max(1, int(std::lround(v.width * scale)));
     const int ch = std::max(1, int(std::lround(v.height * scale)));
     for (int cy = 0; cy < ch; ++cy) {
-      // Box filter over the source texels under this cell pixel.
-      const int sy0 = cy * v.height / ch, sy1 = std::max(sy0 + 1, (cy + 1) * v.height / ch);
+      // Box filter over the source texels under this cell pixel (64-bit products: 16384 * 16384 overflows int).
+      const int sy0 = int(std::int64_t(cy) * v.height / ch);
+      const int sy1 = std::max(sy0 + 1, int(std::int64_t(cy + 1) * v.height / ch));
       for (int cx = 0; cx < cw; ++cx) {
-        const int sx0 = cx * v.width / cw, sx1 = std::max(sx0 + 1, (cx + 1) * v.width / cw);
+        const int sx0 = int(std::int64_t(cx) * v.width / cw);
+        const int sx1 = std::max(sx0 + 1, int(std::int64_t(cx + 1) * v.width / cw));
         double sum = 0.0;
         int count = 0;
         bool bad = false;
@@ -185,7 +178,7 @@ void writeContactSheetPng(const fs::path& out, std::span<const BakedView> views)
         float g = count ? float(sum / count) : 0.0f;
         float rgb[3] = {g, g, g};
         if (bad) { rgb[0] = 1.0f; rgb[1] = 0.0f; rgb[2] = 1.0f; }
-        sheet.setpixel(x0 + cx, y0 + kLabel + cy, rgb, 3);
+        sheet.setpixel(x0 + cx, y0 + label + cy, rgb, 3);
       }
     }
     if (labels) {
@@ -195,7 +188,7 @@ void writeContactSheetPng(const fs::path& out, std::span<const BakedView> views)
       static const char* const kFonts[] = {"", "DejaVuSans", "LiberationSans-Regular", "FreeSans"};
       bool drawn = false;
       for (const char* font : kFonts) {
-        if (OIIO::ImageBufAlgo::render_text(sheet, x0, y0 + kLabel - 5, v.name, 14, font, white)) {
+        if (OIIO::ImageBufAlgo::render_text(sheet, x0, y0 + label - 5, v.name, 14, font, white)) {
           drawn = true;
           break;
         }
@@ -204,11 +197,46 @@ void writeContactSheetPng(const fs::path& out, std::span<const BakedView> views)
       labels = drawn;
     }
   }
+  return sheet;
+}
 
-  writeAtomically(std::span<const fs::path>(&out, 1), [&](std::size_t, const fs::path& tmp) {
-    if (!sheet.write(tmp.string(), OIIO::TypeDesc::UINT8, "png"))
-      throwRuntime(out.string() + ": cannot write the preview: " + sheet.geterror());
+void writeSheetFile(const fs::path& finalPath, const fs::path& tmp, const OIIO::ImageBuf& sheet) {
+  if (!sheet.write(tmp.string(), OIIO::TypeDesc::UINT8, "png"))
+    throwRuntime(finalPath.string() + ": cannot write the preview: " + sheet.geterror());
+}
+
+void checkExtension(const fs::path& out, const char* ext, const char* what) {
+  if (out.extension() != ext)
+    throwBadInput(out.string() + ": the " + what + " must have the extension " + ext);
+}
+
+}  // namespace
+
+void writeBakeOutputs(const fs::path& exr, const std::optional<fs::path>& preview, std::span<const BakedView> views) {
+  validateBakedViews(views);
+  checkExtension(exr, ".exr", "shadow file");
+  checkOutputDirectory(exr, kMaxShadowFileNameBytes);
+  std::vector<fs::path> outputs = {exr, sidecarPath(exr)};
+  if (preview) {
+    checkExtension(*preview, ".png", "preview");
+    checkOutputDirectory(*preview);
+    outputs.push_back(*preview);
+  }
+  writeAtomically(outputs, [&](std::size_t index, const fs::path& tmp) {
+    if (index == 0) writeExrFile(exr, tmp, views);
+    else if (index == 1) writeTextFile(outputs[1], tmp, sidecarJson(views).dump(2) + "\n");
+    else writeSheetFile(outputs[2], tmp, contactSheet(views));
   });
+}
+
+void writeShadowExr(const fs::path& out, std::span<const BakedView> views) { writeBakeOutputs(out, std::nullopt, views); }
+
+void writeContactSheetPng(const fs::path& out, std::span<const BakedView> views) {
+  validateBakedViews(views);
+  checkExtension(out, ".png", "preview");
+  checkOutputDirectory(out);
+  writeAtomically(std::span<const fs::path>(&out, 1),
+                  [&](std::size_t, const fs::path& tmp) { writeSheetFile(out, tmp, contactSheet(views)); });
 }
 
 }  // namespace vs

@@ -33,7 +33,8 @@ struct BakedView {
 // width, height > 0; texels.size() == width * height.
 void validateBakedViews(std::span<const BakedView> views);
 
-// The sidecar path of an EXR: the same file name with ".json" in place of ".exr".
+// The sidecar path of an EXR: its name with ".json" appended ("out.exr" -> "out.exr.json"), so that it can
+// never be a scene file beside it.
 std::filesystem::path sidecarPath(const std::filesystem::path& exr);
 
 // The sidecar's content: {"version": 1, "views": [{name, light, encoding, depthPoint, range, position?,
@@ -49,9 +50,18 @@ nlohmann::json sidecarJson(std::span<const BakedView> views);
 // Throws vs::Error (BadInput for bad views, Runtime for I/O failures) naming the file.
 void writeShadowExr(const std::filesystem::path& out, std::span<const BakedView> views);
 
+// The longest shadow-file name: its sidecar appends ".json" and must fit the usual 255-byte limit.
+inline constexpr std::size_t kMaxShadowFileNameBytes = 250;
+
+// writeShadowExr and, when `preview` is given, the contact sheet (as writeContactSheetPng), committed
+// together: the EXR, its sidecar and the preview all change or none does (DESIGN.md §2).
+void writeBakeOutputs(const std::filesystem::path& exr, const std::optional<std::filesystem::path>& preview,
+                      std::span<const BakedView> views);
+
 // Writes a PNG contact sheet of all views in a grid, each labelled with its name and normalised for
 // display (ndc_depth as is, linear_distance / range; near is dark, misses are white), large layers scaled
-// down. Preconditions and failure behaviour as writeShadowExr (no sidecar).
+// down. The sheet is at most 4096 pixels a side whatever the view count (cells shrink, labels go below 64
+// pixels); more than 4,194,304 views are refused (BadInput). Preconditions and failure behaviour as writeShadowExr (no sidecar).
 void writeContactSheetPng(const std::filesystem::path& out, std::span<const BakedView> views);
 
 }  // namespace vs

@@ -7,6 +7,7 @@
 #include "compute/vulkan/vulkan_tracer.h"
 #include "lighting/scene.h"
 #include "tools/atomic_file.h"
+#include "tools/resources.h"
 #include "tools/bake_output.h"
 #include "tools/commands.h"
 #include "tools/progress.h"
@@ -63,13 +64,62 @@ VulkanOptions vulkanOptions(const std::string& device) {
   return o;
 }
 
-// All views of one size are traced in one VulkanTracer::trace call (one submission, one readback); views of
-// different sizes go in one call per size, so the image array is never padded to the largest view.
+// Largest image array one trace call fills: big enough that a bake of many views needs few submissions, small
+// enough that the image and its readback stay a modest share of any device's memory.
+constexpr std::uint64_t kBatchBytes = 1ull << 30;
+
+std::uint64_t layerBytes(const LightView& v) {
+  return std::uint64_t(v.trace.info.x) * std::uint64_t(v.trace.info.y) * sizeof(float);
+}
+
+std::string gib(std::uint64_t bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f GiB", double(bytes) / double(1ull << 30));
+  return buf;
+}
+
+std::string lightPath(const Scene& scene, const LightView& v) {
+  return scene.desc().file.string() + ": lights[" + std::to_string(v.lightIndex) + "].shadow.resolution";
+}
+
+// Views of one size per batch, at most the device's array layers and about kBatchBytes per batch.
+std::size_t viewsPerBatch(const VulkanDeviceInfo& info, const LightView& v) {
+  std::uint64_t fit = std::max<std::uint64_t>(1, kBatchBytes / layerBytes(v));
+  return std::size_t(std::min<std::uint64_t>(fit, std::max<std::uint32_t>(1, info.maxImageArrayLayers)));
+}
+
+// Refuses, before any trace, a view the device cannot hold (one layer and its readback).
+void checkDeviceFits(const Scene& scene, const std::vector<LightView>& views, const VulkanDeviceInfo& info) {
+  for (const LightView& v : views) {
+    const std::uint64_t bytes = layerBytes(v);
+    if (std::uint32_t(v.trace.info.x) > info.maxImageDimension2D || std::uint32_t(v.trace.info.y) > info.maxImageDimension2D)
+      throwBadInput(lightPath(scene, v) + ": " + std::to_string(v.trace.info.x) + " texels exceed maxImageDimension2D (" +
+                    std::to_string(info.maxImageDimension2D) + ") of " + info.name + " (or use --backend cpu)");
+    if (bytes > info.maxMemoryAllocationSize || 2 * bytes > info.deviceLocalBytes)
+      throwBadInput(lightPath(scene, v) + ": one " + std::to_string(v.trace.info.x) + "x" +
+                    std::to_string(v.trace.info.y) + " layer needs " + gib(bytes) + " on the device and as much to read it back; " +
+                    info.name + " has " + gib(info.deviceLocalBytes) + " (largest allocation " +
+                    gib(info.maxMemoryAllocationSize) + "); lower the resolution or use --backend cpu");
+  }
+}
+
+VulkanTracer openTracer(const std::string& device) {
+  try {
+    return VulkanTracer(vulkanOptions(device));
+  } catch (const Error& e) {
+    if (e.kind() != ErrorKind::Runtime) throw;
+    throwRuntime(std::string(e.what()) + " (to trace without Vulkan, use --backend cpu)");
+  }
+}
+
+// Views of one size are traced together, in batches of viewsPerBatch (one submission and one readback
+// each); views of different sizes go in separate calls, so the image array is never padded to the largest.
 std::vector<ShadowLayer> traceOnVulkan(const Scene& scene, const std::vector<LightView>& views,
-                                       const std::string& device, VulkanBakeStats& stats) {
-  VulkanTracer tracer(vulkanOptions(device));
+                                       VulkanTracer& tracer, VulkanBakeStats& stats) {
   stats.device = tracer.device().name;
   stats.pipeline = tracer.pipelineStats();
+  if (!stats.pipeline.cacheError.empty())
+    std::fprintf(stderr, "voxshadow: warning: pipeline cache: %s\n", stats.pipeline.cacheError.c_str());
   tracer.upload(scene.data());
   stats.boxTable = tracer.boxTableInUse();
   std::vector<std::pair<int, int>> sizes;
@@ -83,31 +133,56 @@ std::vector<ShadowLayer> traceOnVulkan(const Scene& scene, const std::vector<Lig
   std::size_t done = 0;
   for (const auto& size : sizes) {
     std::vector<std::size_t> members;
-    std::vector<gpu::TraceView> group;
     for (std::size_t i = 0; i < views.size(); ++i)
-      if (views[i].trace.info.x == size.first && views[i].trace.info.y == size.second) {
-        members.push_back(i);
-        group.push_back(views[i].trace);
+      if (views[i].trace.info.x == size.first && views[i].trace.info.y == size.second) members.push_back(i);
+    const std::size_t batch = viewsPerBatch(tracer.device(), views[members[0]]);
+    for (std::size_t first = 0; first < members.size(); first += batch) {
+      const std::size_t count = std::min(batch, members.size() - first);
+      std::vector<gpu::TraceView> group;
+      for (std::size_t k = 0; k < count; ++k) group.push_back(views[members[first + k]].trace);
+      std::vector<ShadowLayer> out;
+      TraceStats t = tracer.trace(group, out);
+      ++stats.dispatchCalls;
+      stats.wallMs += t.wallMs;
+      for (std::size_t k = 0; k < count; ++k) {
+        layers[members[first + k]] = std::move(out[k]);
+        if (k < t.viewGpuMs.size()) stats.viewGpuMs[members[first + k]] = t.viewGpuMs[k];
       }
-    std::vector<ShadowLayer> out;
-    TraceStats t = tracer.trace(group, out);
-    ++stats.dispatchCalls;
-    stats.wallMs += t.wallMs;
-    for (std::size_t k = 0; k < members.size(); ++k) {
-      layers[members[k]] = std::move(out[k]);
-      if (k < t.viewGpuMs.size()) stats.viewGpuMs[members[k]] = t.viewGpuMs[k];
+      done += count;
+      progress.update(done, views.size());
     }
-    done += members.size();
-    progress.update(done, views.size());
   }
   progress.finish();
   return layers;
 }
 
-std::vector<ShadowLayer> trace(const Scene& scene, const std::vector<LightView>& views, const BakeOptions& options,
-                               VulkanBakeStats& vulkanStats) {
-  if (options.backend == "cpu") return traceOnCpu(scene, views, options.threads);
-  return traceOnVulkan(scene, views, options.device, vulkanStats);
+// What the bake holds in host memory at its peak: every layer (they are written together), one more layer's
+// worth for the EXR writer, the preview sheet, and on a CPU Vulkan device (lavapipe, whose device memory
+// is host memory) a batch's image and readback.
+std::uint64_t hostBytesNeeded(const std::vector<LightView>& views, bool preview, const VulkanDeviceInfo* device) {
+  std::uint64_t total = 0, largest = 0, batch = 0;
+  for (const LightView& v : views) {
+    total += layerBytes(v);
+    largest = std::max(largest, layerBytes(v));
+    if (device) batch = std::max(batch, layerBytes(v) * viewsPerBatch(*device, v));
+  }
+  total += largest;
+  if (preview) total += 4096ull * 4096ull * 3ull;
+  if (device && device->type == VulkanDeviceType::Cpu) total += 2 * batch;
+  return total;
+}
+
+void checkHostMemory(const Scene& scene, const std::vector<LightView>& views, const BakeOptions& options,
+                     const VulkanDeviceInfo* device) {
+  const std::uint64_t need = hostBytesNeeded(views, options.preview.has_value(), device);
+  const std::uint64_t budget = options.memoryBudget ? *options.memoryBudget : availableMemoryBytes();
+  if (need <= budget) return;
+  std::uint64_t texels = 0;
+  for (const LightView& v : views) texels += layerBytes(v) / sizeof(float);
+  throwBadInput(scene.desc().file.string() + ": lights: " + std::to_string(views.size()) + " shadow layers (" +
+                std::to_string(texels) + " texels) need about " + gib(need) + " of memory, more than the budget of " +
+                gib(budget) + (options.memoryBudget ? " (--memory-budget)" : " (the memory available now; --memory-budget sets another)") +
+                "; lower the lights' shadow.resolution or shadow fewer lights");
 }
 
 BakedView toBaked(const LightView& v, ShadowLayer&& layer) {
@@ -137,18 +212,40 @@ void runBake(const BakeOptions& options) {
     throwBadInput("unknown backend '" + options.backend + "' (cpu or vulkan)");
   if (!options.device.empty() && options.backend != "vulkan")
     throwBadInput("--device chooses a Vulkan device; it needs --backend vulkan");
-  checkOutputDirectory(options.output);
-  if (options.preview) checkOutputDirectory(*options.preview);
+  if (options.threads < 0 || options.threads > kMaxThreads)
+    throwBadInput("--threads: must be between 0 and " + std::to_string(kMaxThreads) + ", not " + std::to_string(options.threads));
 
   auto t0 = Clock::now();
-  Scene scene = Scene::load(options.scene);
+  SceneDesc desc = parseSceneFile(options.scene);
+  std::vector<std::filesystem::path> outputs = {options.output, sidecarPath(options.output)};
+  if (options.preview) outputs.push_back(*options.preview);
+  std::vector<std::filesystem::path> inputs = {options.scene};
+  std::vector<std::string> inputWhat = {"scene"};
+  for (const AssetDesc& a : desc.assets) {
+    inputs.push_back(a.file);
+    inputWhat.push_back("asset '" + a.name + "'");
+  }
+  refuseOutputsOverInputs(outputs, inputs, inputWhat);
+  checkOutputDirectory(options.output, kMaxShadowFileNameBytes);
+  if (options.preview) checkOutputDirectory(*options.preview);
+
+  Scene scene = Scene::load(std::move(desc));
   double loadSeconds = secondsSince(t0);
   std::vector<LightView> views = scene.lightViews();
   if (views.empty()) throwBadInput(options.scene.string() + ": lights: no light casts a shadow, nothing to bake");
 
   auto t1 = Clock::now();
   VulkanBakeStats vulkanStats;
-  std::vector<ShadowLayer> layers = trace(scene, views, options, vulkanStats);
+  std::vector<ShadowLayer> layers;
+  if (options.backend == "cpu") {
+    checkHostMemory(scene, views, options, nullptr);
+    layers = traceOnCpu(scene, views, options.threads);
+  } else {
+    VulkanTracer tracer = openTracer(options.device);
+    checkDeviceFits(scene, views, tracer.device());
+    checkHostMemory(scene, views, options, &tracer.device());
+    layers = traceOnVulkan(scene, views, tracer, vulkanStats);
+  }
   double traceSeconds = secondsSince(t1);
 
   std::vector<BakedView> baked;
@@ -159,18 +256,8 @@ void runBake(const BakeOptions& options) {
     baked.push_back(toBaked(views[i], std::move(layers[i])));
   }
   auto t2 = Clock::now();
-  writeShadowExr(options.output, baked);
-  if (options.preview) {
-    try {
-      writeContactSheetPng(*options.preview, baked);
-    } catch (...) {
-      // One bake, one outcome: a failed preview takes the EXR and sidecar with it.
-      std::error_code ignored;
-      std::filesystem::remove(options.output, ignored);
-      std::filesystem::remove(sidecarPath(options.output), ignored);
-      throw;
-    }
-  }
+  // One bake, one outcome: the EXR, its sidecar and the preview are committed together or not at all.
+  writeBakeOutputs(options.output, options.preview, baked);
   double writeSeconds = secondsSince(t2);
 
   std::printf("baked %zu view%s into %s\n", baked.size(), baked.size() == 1 ? "" : "s", options.output.c_str());
@@ -191,8 +278,10 @@ void runBake(const BakeOptions& options) {
       std::printf("  device %s, %zu trace call%s (one per view size), walk through the %s\n",
                   vulkanStats.device.c_str(), vulkanStats.dispatchCalls, vulkanStats.dispatchCalls == 1 ? "" : "s",
                   vulkanStats.boxTable ? "box table" : "brickmap hierarchy");
-      std::printf("  pipeline creation %.1f ms, %s cache (%s, %llu bytes%s)\n", p.createMs,
-                  p.warmCache ? "warm" : "cold", p.cacheFile.c_str(), ec ? 0ull : (unsigned long long)cacheBytes,
+      // A cache file the driver keeps nothing in (lavapipe's holds a header only) saves no work: not "warm".
+      const char* cacheState = p.warmCache ? "warm" : p.cacheEmpty ? "empty (the driver caches nothing)" : "cold";
+      std::printf("  pipeline creation %.1f ms, %s cache (%s, %llu bytes%s)\n", p.createMs, cacheState,
+                  p.cacheFile.c_str(), ec ? 0ull : (unsigned long long)cacheBytes,
                   p.cacheSaved ? "" : (", not saved: " + p.cacheError).c_str());
       for (std::size_t i = 0; i < baked.size(); ++i) {
         double rays = double(baked[i].width) * double(baked[i].height);
@@ -217,9 +306,12 @@ void registerBake(CLI::App& app) {
       ->check(CLI::IsMember({"cpu", "vulkan"}))
       ->capture_default_str();
   sub->add_option("--preview", options->preview, "Also write a PNG contact sheet of the layers");
-  sub->add_option("--threads", options->threads, "CPU threads (0: all)")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
+  addThreadsOption(sub, options->threads, "CPU threads (0: all)", 0);
+  sub->add_option_function<std::string>(
+         "--memory-budget",
+         [options](const std::string& text) { options->memoryBudget = parseByteSize(text, "--memory-budget"); },
+         "Most host memory the bake may plan to use, e.g. 8G, 512M (default: the memory available now)")
+      ->type_name("SIZE");
   sub->add_option("--device", options->device,
                   "Vulkan device: an index or part of a name from `voxshadow info --devices` (default: best)");
   sub->add_flag("--stats", options->stats,

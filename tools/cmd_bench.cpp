@@ -14,6 +14,7 @@
 #include "compute/cpu/cpu_tracer.h"
 #include "compute/vulkan/vulkan_tracer.h"
 #include "tools/commands.h"
+#include "tools/resources.h"
 #include "tools/peer/openvdb_peer.h"
 #include "voxel/city512.h"
 #include "voxel/error.h"
@@ -220,7 +221,7 @@ void runBench(const BenchOptions& opt) {
 void registerBench(CLI::App& app) {
   auto options = std::make_shared<BenchOptions>();
   CLI::App* cmd = app.add_subcommand("bench", "Trace city512 with each backend and the OpenVDB peer; print Mrays/s");
-  cmd->add_option("--threads", options->threads, "CPU threads for every CPU tracer (default 2)");
+  addThreadsOption(cmd, options->threads, "CPU threads for every CPU tracer (default 2)", 1);
   cmd->add_option("--resolution", options->resolution, "view resolution in texels per side (default 1024)");
   cmd->add_option("--reps", options->reps, "timed repetitions after a warm-up; the median is reported (default 5)");
   cmd->add_flag("--no-peer", options->skipPeer, "skip the OpenVDB peer");

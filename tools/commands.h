@@ -4,6 +4,7 @@
 #define VOXSHADOW_TOOLS_COMMANDS_H
 
 #include <filesystem>
+#include <cstdint>
 #include <optional>
 #include <string>
 
@@ -23,7 +24,8 @@ struct BakeOptions {
   std::filesystem::path output;                 // must end in .exr
   std::optional<std::filesystem::path> preview; // must end in .png
   std::string backend = "vulkan";               // "vulkan" | "cpu" (DESIGN.md §9)
-  int threads = 0;                              // CPU backend: 0 = every hardware thread
+  int threads = 0;                              // CPU backend: 0 = every hardware thread, at most kMaxThreads
+  std::optional<std::uint64_t> memoryBudget;    // bytes; unset: availableMemoryBytes()
   std::string device;                           // Vulkan backend: index (digits) or name part; empty = best
   bool stats = false;
 };

@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "tools/atomic_file.h"
 #include "tools/commands.h"
 #include "voxel/error.h"
 
@@ -22,7 +23,10 @@ int fail(int status, const std::string& message) {
 int main(int argc, char** argv) {
   CLI::App app{"voxshadow: ray-traced shadows for voxel scenes (OpenVDB assets, CPU and Vulkan backends)"};
   app.name("voxshadow");
+  app.set_version_flag("--version", std::string("voxshadow ") + VOXSHADOW_VERSION);
   app.require_subcommand(1);
+  // Before anything can write a temporary: an interrupted command removes its temporaries and exits 130/143.
+  vs::installSignalCleanup();
   vs::cli::registerInfo(app);
   vs::cli::registerDemo(app);
   vs::cli::registerBake(app);

@@ -8,19 +8,29 @@
 #include <mutex>
 #include <unordered_map>
 
+#include <unistd.h>
+
 #include <glm/gtc/matrix_transform.hpp>
 #include <fstream>
 
 #include <openvdb/io/Stream.h>
+#include <openvdb/util/logging.h>
 
 #include "voxel/error.h"
+#include "voxel/valid_range.h"
 #include "voxel/vox_reader.h"
 
 namespace vs {
 
 void ensureOpenVdbInitialized() {
   static std::once_flag once;
-  std::call_once(once, [] { openvdb::initialize(); });
+  std::call_once(once, [] {
+    openvdb::initialize();
+#ifdef OPENVDB_USE_LOG4CPLUS
+    // OpenVDB's own warnings carry terminal colour codes; a log file or a pipe gets them plain.
+    openvdb::logging::initialize(::isatty(2) != 0);
+#endif
+  });
 }
 
 namespace {
@@ -35,13 +45,17 @@ std::string printable(std::string s) {
 openvdb::GridPtrVec readVdbGrids(const std::string& path) {
   ensureOpenVdbInitialized();
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) throwBadInput(path + ": no such file");
+  std::filesystem::file_status st = std::filesystem::status(path, ec);
+  if (!std::filesystem::exists(st)) throwBadInput(path + ": no such file");
+  if (std::filesystem::is_directory(st)) throwBadInput(path + ": is a directory, not a .vdb file");
+  if (!std::filesystem::is_regular_file(st)) throwBadInput(path + ": is not a regular file (a FIFO or a device)");
   try {
-    // io::Stream reads grids in file order (io::File lists them sorted by name) and fully, with no
-    // delayed loading from a file that may be damaged.
+    // io::Stream reads grids in file order (io::File lists them sorted by name). Without delayed loading
+    // it reads every grid fully from the stream; with it, Stream first copies the whole input into a
+    // temporary file (openvdb_temp_*) that it does not remove when reading fails.
     std::ifstream in(path, std::ios::binary);
     if (!in) throwBadInput(path + ": cannot open for reading");
-    openvdb::io::Stream stream(in);
+    openvdb::io::Stream stream(in, /*delayLoad=*/false);
     openvdb::GridPtrVecPtr grids = stream.getGrids();
     if (!grids) throwBadInput(path + ": no grids could be read");
     return *grids;
@@ -343,6 +357,18 @@ glm::dmat4 brickToObjectOf(const openvdb::GridBase& g, const std::string& file) 
                   ") transform; only linear transforms are supported");
   }
   openvdb::Mat4d m = t.baseMap()->getAffineMap()->getMat4();
+  // Voxel sizes outside the valid range would push the tracers' float arithmetic out of its exact range.
+  for (int axis = 0; axis < 3; ++axis) {
+    double len = std::sqrt(m(axis, 0) * m(axis, 0) + m(axis, 1) * m(axis, 1) + m(axis, 2) * m(axis, 2));
+    if (!(len >= limits::kMinVoxelSize && len <= limits::kMaxVoxelSize))
+      throwBadInput(file + ": " + gridLabel(g) + " has a voxel size of " + std::to_string(len) + " along axis " +
+                    std::to_string(axis) + "; the valid range is " + std::to_string(limits::kMinVoxelSize) + " to " +
+                    std::to_string(limits::kMaxVoxelSize));
+    if (!std::isfinite(m(3, axis)) || std::abs(m(3, axis)) > limits::kMaxCoordinate)
+      throwBadInput(file + ": " + gridLabel(g) + " has a translation of " + std::to_string(m(3, axis)) +
+                    " along axis " + std::to_string(axis) + "; coordinates must lie within +-" +
+                    std::to_string(limits::kMaxCoordinate));
+  }
   // OpenVDB multiplies row vectors (translation in row 3); GLM's column-major m[col][row] of the
   // column-vector form holds the same numbers at the same indices.
   glm::dmat4 g4(1.0);

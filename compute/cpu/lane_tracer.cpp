@@ -713,8 +713,16 @@ void setupBatch(const gpu::SceneArrays& arrays, const SingleInstance& one, const
   __m256 infinity = bcast(gpu::VS_T_INFINITY);
   __m256 nodeEntry = boxEntryLanes(node.boundsMin, node.boundsMax, o, d, tMax);
   __m256 entry = boxEntryLanes(glm::vec3(inst.boundsMin), glm::vec3(inst.boundsMax), o, d, tMax);
-  __m256 candidate =
-      _mm256_and_ps(_mm256_cmp_ps(nodeEntry, infinity, _CMP_NEQ_UQ), _mm256_cmp_ps(entry, infinity, _CMP_NEQ_UQ));
+  // vsRayIsFinite: a lane whose ray has a NaN or infinite component is a miss.
+  __m256 finite = _mm256_cmp_ps(tMax, tMax, _CMP_ORD_Q);
+  __m256 absMask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  for (int a = 0; a < 3; ++a) {
+    finite = _mm256_and_ps(finite, _mm256_cmp_ps(_mm256_and_ps(o[a], absMask), infinity, _CMP_LE_OQ));
+    finite = _mm256_and_ps(finite, _mm256_cmp_ps(_mm256_and_ps(d[a], absMask), infinity, _CMP_LE_OQ));
+  }
+  finite = _mm256_and_ps(finite, _mm256_cmp_ps(_mm256_and_ps(tMax, absMask), infinity, _CMP_LE_OQ));
+  __m256 candidate = _mm256_and_ps(
+      finite, _mm256_and_ps(_mm256_cmp_ps(nodeEntry, infinity, _CMP_NEQ_UQ), _mm256_cmp_ps(entry, infinity, _CMP_NEQ_UQ)));
   // beginNextWalk: no walk when the box starts after tBest (= tMax).
   __m256 walk = _mm256_and_ps(candidate, _mm256_cmp_ps(entry, tMax, _CMP_LE_OQ));
 

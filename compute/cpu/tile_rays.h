@@ -39,6 +39,8 @@ struct RayState {
 // more than kMaxCandidates.
 inline bool collectCandidates(gpu::SceneArrays& arrays, RayState& ray) {
   ray.candidateCount = 0;
+  // A non-finite ray is a miss (vsShadowTexel gives its texel); it must never reach the walk's integer cells.
+  if (!arrays.vsRayIsFinite(ray.o, ray.d, ray.tMax)) return false;
   if (arrays.nodeCount == 0u) return true;
   std::uint32_t stack[gpu::VS_BVH_STACK_SIZE];
   int top = 0;

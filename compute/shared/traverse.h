@@ -512,6 +512,16 @@ float vsTexelValue(TraceView view, vec3 o, vec3 d, float tMax, bool hit, float t
   return tHit;
 }
 
+// Whether every component of a ray is finite. Comparisons, not isnan/isinf, so that GLSL and C++ read it
+// alike: a NaN fails every comparison. A non-finite ray (a degenerate view matrix) is a miss, so that no
+// tracer turns it into a voxel coordinate.
+bool vsRayIsFinite(vec3 o, vec3 d, float tMax) {
+  vec3 ao = abs(o);
+  vec3 ad = abs(d);
+  return ao.x <= VS_T_INFINITY && ao.y <= VS_T_INFINITY && ao.z <= VS_T_INFINITY && ad.x <= VS_T_INFINITY &&
+         ad.y <= VS_T_INFINITY && ad.z <= VS_T_INFINITY && abs(tMax) <= VS_T_INFINITY;
+}
+
 // The texel value of one view texel.
 float vsShadowTexel(TraceView view, ivec2 texel) {
   vec3 o = vec3(0.0f);
@@ -521,6 +531,6 @@ float vsShadowTexel(TraceView view, ivec2 texel) {
   float tHit = tMax;
   uint instanceHit = 0u;
   ivec3 voxel = ivec3(0);
-  bool hit = vsTraceClosest(o, d, 0.0f, tMax, tHit, instanceHit, voxel);
+  bool hit = vsRayIsFinite(o, d, tMax) && vsTraceClosest(o, d, 0.0f, tMax, tHit, instanceHit, voxel);
   return vsTexelValue(view, o, d, tMax, hit, tHit, instanceHit, voxel);
 }

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <vector>
@@ -15,6 +16,8 @@ namespace {
 
 // VkPipelineCacheHeaderVersionOne: length, version, vendorID, deviceID, then the 16-byte UUID.
 constexpr std::size_t kHeaderBytes = 16 + VK_UUID_SIZE;
+// Drivers' caches of one pipeline's few variants are kilobytes to a few megabytes; a larger file is not ours.
+constexpr std::uintmax_t kMaxCacheBytes = 256ull << 20;
 
 std::string hex(const std::uint8_t* bytes, std::size_t n) {
   static const char* digits = "0123456789abcdef";
@@ -44,8 +47,20 @@ DiskPipelineCache::DiskPipelineCache(VulkanContext& context, const std::filesyst
   }
   std::vector<char> data;
   if (!file_.empty()) {
-    std::ifstream in(file_, std::ios::binary);
-    if (in) data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    // Only a regular file is read (a FIFO would block the open forever, a directory cannot be read), and only
+    // up to a size no driver's cache reaches: anything else is ignored here and reported when saving.
+    std::error_code ec;
+    std::filesystem::file_status st = std::filesystem::status(file_, ec);
+    if (std::filesystem::exists(st) && !std::filesystem::is_regular_file(st)) {
+      lastError_ = file_.string() + ": is not a regular file; the pipeline cache is not used";
+      unusable_ = true;
+    } else if (std::filesystem::is_regular_file(st)) {
+      const std::uintmax_t bytes = std::filesystem::file_size(file_, ec);
+      if (!ec && bytes <= kMaxCacheBytes) {
+        std::ifstream in(file_, std::ios::binary);
+        if (in) data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+      }
+    }
   }
   // Only hand the driver data it wrote itself; a header mismatch means another device or a damaged file.
   // A header-only file is valid: some drivers (lavapipe) keep no pipeline binaries at all.
@@ -66,7 +81,8 @@ DiskPipelineCache::DiskPipelineCache(VulkanContext& context, const std::filesyst
   }
   vk::check(r, "vkCreatePipelineCache");
   cache_ = vk::UniquePipelineCache(context.device(), cache);
-  warm_ = valid;
+  warm_ = valid && data.size() > kHeaderBytes;
+  empty_ = valid && data.size() <= kHeaderBytes;
 }
 
 bool DiskPipelineCache::save() {
@@ -74,6 +90,7 @@ bool DiskPipelineCache::save() {
     lastError_ = "no cache directory (set VOXSHADOW_CACHE_DIR, XDG_CACHE_HOME or HOME)";
     return false;
   }
+  if (unusable_) return false;  // lastError_ says why
   std::size_t size = 0;
   vk::check(vkGetPipelineCacheData(context_.device(), cache_.get(), &size, nullptr), "vkGetPipelineCacheData");
   std::vector<char> data(size);

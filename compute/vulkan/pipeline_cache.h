@@ -15,13 +15,16 @@ std::filesystem::path defaultPipelineCacheDir();
 // One cache file per device and driver: <dir>/pipelines-<pipelineCacheUUID>-<driverVersion>.bin.
 class DiskPipelineCache {
  public:
-  // Loads the file when present and made by this device and driver; a missing, foreign or corrupt file
-  // gives an empty cache (never an error). Precondition: context outlives this object.
+  // Loads the file when present, a regular file of sane size, and made by this device and driver; a
+  // missing, foreign, corrupt or non-regular file (FIFO, directory) gives an empty cache (never an error;
+  // the non-regular one is reported by save() and lastError()). Precondition: context outlives this object.
   DiskPipelineCache(VulkanContext& context, const std::filesystem::path& dir);
 
   VkPipelineCache get() const { return cache_.get(); }
-  // True when a valid cache file for this device was loaded.
+  // True when a cache file for this device with pipeline data in it was loaded.
   bool warm() const { return warm_; }
+  // True when the loaded file was valid but held a header only (drivers such as lavapipe cache nothing).
+  bool empty() const { return empty_; }
   const std::filesystem::path& file() const { return file_; }
   // Writes the cache atomically (temporary file, then rename). Returns false and keeps the reason in
   // lastError() when the directory cannot be written; a cache is an optimisation, never a failure.
@@ -33,6 +36,8 @@ class DiskPipelineCache {
   std::filesystem::path file_;
   vk::UniquePipelineCache cache_;
   bool warm_ = false;
+  bool empty_ = false;
+  bool unusable_ = false;  // the cache path is not a regular file: neither read nor written
   std::string lastError_;
 };
 

@@ -190,6 +190,7 @@ struct VulkanTracer::Impl {
     variant(false, options.boxTable, false);  // the usual one, so that creation is timed and cached here
     pipelineStats.createMs = msSince(t0);
     pipelineStats.warmCache = cache->warm();
+    pipelineStats.cacheEmpty = cache->empty();
     pipelineStats.cacheFile = cache->file();
     pipelineStats.cacheSaved = cache->lastError().empty();
     pipelineStats.cacheError = cache->lastError();
@@ -510,18 +511,29 @@ struct VulkanTracer::Impl {
       throwRuntime("trace of " + std::to_string(dispatchW) + "x" + std::to_string(dispatchH) +
                    " texels exceeds maxComputeWorkGroupCount on " + info.name);
 
-    // The image only grows, so a later partial trace of a smaller batch reuses it.
-    if (!image.image || image.extent.width < maxW || image.extent.height < maxH || image.layers < layerCount)
-      image = context.createStorageImage(std::max(maxW, image.extent.width), std::max(maxH, image.extent.height),
-                                         std::max(layerCount, image.layers));
+    // The image grows to hold later batches, so a partial trace of a smaller batch reuses it; but never to the
+    // union of a wide batch and a deep one (2048 layers of 16^2, then one of 16384^2, would ask for 2 TiB):
+    // past twice what this batch needs it is made to measure, the old one released first.
+    auto bytesOf = [](std::uint64_t w, std::uint64_t h, std::uint64_t l) { return w * h * l * sizeof(float); };
+    const std::uint64_t needBytes = bytesOf(maxW, maxH, layerCount);
+    if (!image.image || image.extent.width < maxW || image.extent.height < maxH || image.layers < layerCount ||
+        bytesOf(image.extent.width, image.extent.height, image.layers) > 2 * needBytes) {
+      std::uint32_t w = std::max(maxW, image.extent.width), h = std::max(maxH, image.extent.height);
+      std::uint32_t l = std::max(layerCount, image.layers);
+      if (!image.image || bytesOf(w, h, l) > 2 * needBytes) w = maxW, h = maxH, l = layerCount;
+      image = vk::Image{};
+      image = context.createStorageImage(w, h, l);
+    }
     VkDeviceSize viewBytes = views.size() * viewStride;
     if (!viewBuffer.buffer || viewBuffer.size < viewBytes)
       viewBuffer = context.createHostBuffer(viewBytes, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     for (std::size_t i = 0; i < views.size(); ++i)
       std::memcpy(static_cast<std::uint8_t*>(viewBuffer.mapped) + i * viewStride, &views[i], sizeof(gpu::TraceView));
     VkDeviceSize readbackBytes = readbackTexels * sizeof(float);
-    if (!readback.buffer || readback.size < readbackBytes)
+    if (!readback.buffer || readback.size < readbackBytes || readback.size > 2 * readbackBytes) {
+      readback = vk::Buffer{};
       readback = context.createHostBuffer(readbackBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+    }
     writeDescriptors();
 
     std::vector<VkBufferImageCopy> copies;

@@ -68,7 +68,8 @@ struct TraceStats {
 
 struct PipelineStats {
   double createMs = 0.0;   // vkCreateComputePipelines of the trace pipeline
-  bool warmCache = false;  // a pipeline-cache file for this device and driver was loaded
+  bool warmCache = false;  // a pipeline-cache file for this device and driver, with pipelines in it, was loaded
+  bool cacheEmpty = false; // the loaded file held a header only: the driver caches nothing
   std::filesystem::path cacheFile;
   bool cacheSaved = false;
   std::string cacheError;  // why the cache could not be saved, when it could not
