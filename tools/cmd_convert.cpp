@@ -47,9 +47,9 @@ openvdb::math::Transform::Ptr gridTransform(const glm::dmat4& brickToAsset) {
 void runConvert(const fs::path& in, const fs::path& out, int frame) {
   if (lowerExtension(in) != ".vox") throwBadInput("convert: " + in.string() + ": the input must be a .vox file");
   if (lowerExtension(out) != ".vdb") throwBadInput("convert: " + out.string() + ": the output must end in .vdb");
-  std::error_code ec;
-  if (fs::exists(out, ec) && fs::equivalent(in, out, ec))
-    throwBadInput("convert: " + out.string() + ": the output would overwrite the input");
+  const fs::path outputs[] = {out}, inputs[] = {in};
+  const std::string inputWhat[] = {"file"};
+  refuseOutputsOverInputs(outputs, inputs, inputWhat);
   checkOutputDirectory(out);
   VoxReadOptions read;
   read.frame = frame;
@@ -92,7 +92,6 @@ void runConvert(const fs::path& in, const fs::path& out, int frame) {
     lines.push_back(line);
     grids.push_back(grid);
   }
-  const fs::path outputs[] = {out};
   writeAtomically(outputs, [&](std::size_t, const fs::path& tmp) {
     try {
       openvdb::io::File file(tmp.string());
