@@ -145,6 +145,11 @@ TEST(CliVox, ConvertRefusesBadPaths) {
   EXPECT_EQ(cli("convert " + quote(dir / "none.vox") + " " + quote(dir / "b.vdb"), out), 2) << out;
   EXPECT_TRUE(contains(out, "none.vox")) << out;
   EXPECT_FALSE(fs::exists(dir / "b.vdb"));
+  // An output that is the input under another name.
+  fs::create_symlink(vox, dir / "same.vdb");
+  EXPECT_EQ(cli("convert " + quote(vox) + " " + quote(dir / "same.vdb"), out), 2) << out;
+  EXPECT_TRUE(contains(out, "would overwrite the input")) << out;
+  EXPECT_EQ(fs::file_size(vox), fs::file_size(test::sharedAssets() / "vox" / "vengi_two_voxels.vox"));
 }
 
 VoxModel block(glm::ivec3 s, std::uint8_t colour) {
