@@ -1,7 +1,9 @@
 // The baked EXR, its sidecar and the contact sheet: content read back exactly, failures leave nothing.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <sys/wait.h>
 #include <fstream>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -267,4 +269,136 @@ TEST(BakeOutput, SameSizeViewsHaveDataWindowEqualToDisplayWindow) {
     EXPECT_EQ(spec.width, spec.full_width);
     EXPECT_EQ(spec.height, spec.full_height);
   }
+}
+
+namespace {
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+void writeText(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary) << text; }
+
+}  // namespace
+
+int failRenamesOntoPng(const char* from, const char* to) {
+  if (std::string(to).ends_with(".png")) {
+    errno = EIO;
+    return -1;
+  }
+  return ::rename(from, to);
+}
+
+// A rename failing halfway through the commit (the third output cannot be replaced) puts the outputs already
+// replaced back as they were: a bake's outputs change together or not at all.
+TEST(BakeOutput, AFailedCommitRestoresEveryPreviousOutput) {
+  fs::path dir = vs::test::scratchDir("bake_output_rollback");
+  const std::array<fs::path, 3> outputs = {dir / "y.exr", dir / "y.exr.json", dir / "y.png"};
+  auto writeNew = [](std::size_t i, const fs::path& tmp) { writeText(tmp, "new " + std::to_string(i)); };
+  writeText(outputs[0], "old exr");
+  writeText(outputs[1], "old json");
+  writeText(outputs[2], "old png");
+  vs::RenameFunction previous = vs::exchangeCommitRenameForTesting(&failRenamesOntoPng);
+  EXPECT_THROW(vs::writeAtomically(outputs, writeNew), vs::Error);
+  EXPECT_EQ(slurp(outputs[0]), "old exr");
+  EXPECT_EQ(slurp(outputs[1]), "old json");
+  EXPECT_EQ(slurp(outputs[2]), "old png");
+  EXPECT_EQ(dirEntries(dir).size(), 3u) << "temporaries or backups left behind";
+  // Outputs that did not exist before are removed again.
+  fs::remove(outputs[0]);
+  EXPECT_THROW(vs::writeAtomically(outputs, writeNew), vs::Error);
+  EXPECT_FALSE(fs::exists(outputs[0]));
+  EXPECT_EQ(slurp(outputs[1]), "old json");
+  EXPECT_EQ(dirEntries(dir).size(), 2u);
+  vs::exchangeCommitRenameForTesting(previous);
+
+  // A directory in place of an output is refused before anything is replaced.
+  fs::create_directory(outputs[0]);
+  EXPECT_THROW(vs::writeAtomically(outputs, writeNew), vs::Error);
+  EXPECT_TRUE(fs::is_directory(outputs[0]));
+  EXPECT_EQ(slurp(outputs[1]), "old json");
+  EXPECT_EQ(dirEntries(dir).size(), 3u);
+
+  // And a commit that can complete replaces all of them.
+  fs::remove(outputs[0]);
+  vs::writeAtomically(outputs, writeNew);
+  for (std::size_t i = 0; i < 3; ++i) EXPECT_EQ(slurp(outputs[i]), "new " + std::to_string(i));
+  EXPECT_EQ(dirEntries(dir).size(), 3u);
+}
+
+// The case as a user meets it: an immutable preview (chattr +i) cannot be replaced, so the bake fails and the
+// previous EXR and sidecar stay. Needs root and a file system with the immutable flag; where chattr refuses,
+// the test says so and fails, since the rollback above would then be the only evidence.
+TEST(BakeOutput, AnImmutablePreviewKeepsThePreviousBake) {
+  fs::path dir = vs::test::scratchDir("bake_output_immutable");
+  auto views = threeViews();
+  vs::writeBakeOutputs(dir / "y.exr", dir / "y.png", views);
+  const std::string exr = slurp(dir / "y.exr"), json = slurp(dir / "y.exr.json"), png = slurp(dir / "y.png");
+  std::string out;
+  ASSERT_EQ(vs::test::runCommand("chattr +i " + vs::test::quote(dir / "y.png"), out), 0)
+      << "chattr +i is not available here (" << out << "); run as root on a file system with the immutable flag";
+  views[0].texels[0] = 0.125f;
+  views[1].name = "renamed";
+  EXPECT_THROW(vs::writeBakeOutputs(dir / "y.exr", dir / "y.png", views), vs::Error);
+  vs::test::runCommand("chattr -i " + vs::test::quote(dir / "y.png"), out);
+  EXPECT_EQ(slurp(dir / "y.exr"), exr);
+  EXPECT_EQ(slurp(dir / "y.exr.json"), json);
+  EXPECT_EQ(slurp(dir / "y.png"), png);
+  EXPECT_EQ(dirEntries(dir).size(), 3u);
+}
+
+TEST(BakeOutput, TemporariesAreRecognisableAndFitTheNameLimit) {
+  const fs::path out = "/somewhere/" + std::string(250, 'x') + ".exr";
+  const fs::path tmp = vs::temporarySibling(out);
+  EXPECT_LE(tmp.filename().string().size(), 255u);
+  EXPECT_EQ(tmp.extension(), ".exr");
+  EXPECT_EQ(tmp.parent_path(), out.parent_path());
+  EXPECT_EQ(vs::temporaryWriterPid(tmp.filename().string()), long(::getpid()));
+  EXPECT_EQ(vs::temporaryWriterPid(vs::temporarySibling("a/b.png", ".bak").filename().string()), long(::getpid()));
+  for (const char* notOurs : {"shadows.exr", ".shadows.exr", ".x.voxshadow-12.exr", ".x.voxshadow--3.exr",
+                              ".x.voxshadow-12-4.exr.json", "x.voxshadow-12-4.exr"})
+    EXPECT_FALSE(vs::temporaryWriterPid(notOurs)) << notOurs;
+}
+
+TEST(BakeOutput, StaleTemporariesOfDeadWritersAreRemoved) {
+  fs::path dir = vs::test::scratchDir("bake_output_stale");
+  // A pid that is certainly not running: a child that has exited and been reaped.
+  pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  const std::string dead = std::to_string(child), alive = std::to_string(::getppid());
+  // Built by appending: GCC 12 warns falsely on chains of string operator+.
+  auto temp = [](const char* name, const std::string& pid, const char* tail) {
+    return std::string(".").append(name).append(".voxshadow-").append(pid).append(tail);
+  };
+  for (const std::string& name : {temp("y.exr", dead, "-0.exr"), temp("y.exr.json", dead, "-1.json"),
+                                  temp("y.png", dead, "-7.bak"), temp("y.exr", alive, "-0.exr"), std::string("y.exr"),
+                                  std::string("notes.voxshadow-1-1.txt")})
+    writeText(dir / name, "x");
+  EXPECT_EQ(vs::removeStaleTemporaries(dir), 3u);
+  std::vector<std::string> left = dirEntries(dir);
+  std::sort(left.begin(), left.end());
+  EXPECT_EQ(left, (std::vector<std::string>{temp("y.exr", alive, "-0.exr"), "notes.voxshadow-1-1.txt", "y.exr"}));
+  // checkOutputDirectory, which every bake calls first, does the same.
+  writeText(dir / temp("z.exr", dead, "-3.exr"), "x");
+  vs::checkOutputDirectory(dir / "z.exr");
+  EXPECT_FALSE(fs::exists(dir / temp("z.exr", dead, "-3.exr")));
+}
+
+TEST(BakeOutput, ContactSheetOfThousandsOfViewsIsBounded) {
+  fs::path dir = vs::test::scratchDir("bake_output_many");
+  std::vector<vs::BakedView> views;
+  glm::mat4 m(1.0f);
+  for (int i = 0; i < 3000; ++i)
+    views.push_back(makeView(std::string("l").append(std::to_string(i)), std::string("l").append(std::to_string(i)),
+                             "ndc_depth", "entry", 1.0f, std::nullopt, m,
+                             i % 7 == 0 ? 64 : 16, 16, float(i % 5) * 0.1f));
+  vs::writeContactSheetPng(dir / "many.png", views);
+  auto in = OIIO::ImageInput::open((dir / "many.png").string());
+  ASSERT_TRUE(in);
+  EXPECT_LE(in->spec().width, 4096);
+  EXPECT_LE(in->spec().height, 4096);
+  EXPECT_GT(in->spec().width, 1000) << "the cells shrank more than they needed to";
 }

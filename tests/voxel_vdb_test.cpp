@@ -361,3 +361,37 @@ TEST(VdbLoad, NonLinearTransformIsRefused) {
 }
 
 }  // namespace
+
+// Reading a .vdb (good or damaged) makes no temporary copy of it: OpenVDB's delayed loading from a stream
+// copies the whole input to openvdb_temp_* files (and keeps them when reading fails). With the temporary
+// directory pointing nowhere, such a copy would fail the load of every good file.
+TEST(VdbLoad, ReadingMakesNoTemporaryCopies) {
+  const fs::path tmp = vs::test::scratchDir("vdb_no_temp_copies");
+  const fs::path nowhere = tmp / "missing";
+  const char* old = std::getenv("TMPDIR");
+  const std::string saved = old ? old : "";
+  ::setenv("TMPDIR", nowhere.c_str(), 1);
+  ::setenv("OPENVDB_TEMP_DIR", nowhere.c_str(), 1);
+  int loaded = 0, refused = 0;
+  for (const auto& e : fs::directory_iterator(vs::test::sharedAssets() / "vdb")) {
+    if (!e.is_regular_file()) continue;
+    EXPECT_NO_THROW((void)vs::loadVdb(e.path().string())) << e.path();
+    ++loaded;
+  }
+  for (const auto& e : fs::directory_iterator(vs::test::sharedAssets() / "vdb" / "damaged")) {
+    ::setenv("OPENVDB_TEMP_DIR", tmp.c_str(), 1);
+    try {
+      (void)vs::loadVdb(e.path().string());
+    } catch (const vs::Error&) {
+      ++refused;
+    }
+  }
+  if (old) ::setenv("TMPDIR", saved.c_str(), 1);
+  else ::unsetenv("TMPDIR");
+  ::unsetenv("OPENVDB_TEMP_DIR");
+  EXPECT_EQ(loaded, 7);
+  EXPECT_GE(refused, 1);
+  std::vector<std::string> left;
+  for (const auto& e : fs::directory_iterator(tmp)) left.push_back(e.path().filename().string());
+  EXPECT_EQ(left, std::vector<std::string>{}) << "temporary copies of damaged files were left behind";
+}

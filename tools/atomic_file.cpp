@@ -39,6 +39,7 @@ Slot g_slots[kSlotCount];
 // all outputs are in place, so that they never change halfway.
 std::atomic<int> g_committing{0};
 std::atomic<int> g_pendingSignal{0};
+std::atomic<RenameFunction> g_commitRename{&::rename};
 
 void removeRegisteredTemporaries() {
   for (Slot& s : g_slots)
@@ -239,6 +240,7 @@ void writeAtomically(std::span<const fs::path> outputs,
     for (std::size_t i = 0; i < outputs.size(); ++i) {
       struct stat st;
       if (::lstat(outputs[i].c_str(), &st) != 0) continue;
+      if (S_ISDIR(st.st_mode)) throwRuntime(outputs[i].string() + ": is a directory; it cannot be replaced by a file");
       existed[i] = true;
       backups[i] = temporarySibling(outputs[i], ".bak");
       registrations.push_back(std::make_unique<Registration>(backups[i]));
@@ -258,7 +260,7 @@ void writeAtomically(std::span<const fs::path> outputs,
     throw;
   }
   for (std::size_t i = 0; i < outputs.size(); ++i) {
-    if (::rename(temps[i].c_str(), outputs[i].c_str()) == 0) continue;
+    if (g_commitRename.load()(temps[i].c_str(), outputs[i].c_str()) == 0) continue;
     int err = errno;
     // Every output with a backup gets it back (those moved aside too); new ones replaced so far go.
     for (std::size_t j = 0; j < outputs.size(); ++j) {
@@ -272,6 +274,8 @@ void writeAtomically(std::span<const fs::path> outputs,
   for (const auto& b : backups)
     if (!b.empty()) fs::remove(b, ignored);
 }
+
+RenameFunction exchangeCommitRenameForTesting(RenameFunction rename) { return g_commitRename.exchange(rename); }
 
 void installSignalCleanup() {
   struct sigaction sa;

@@ -51,6 +51,11 @@ void refuseOutputsOverInputs(std::span<const std::filesystem::path> outputs,
 void writeAtomically(std::span<const std::filesystem::path> outputs,
                      const std::function<void(std::size_t index, const std::filesystem::path& tmp)>& write);
 
+// The rename the commit uses (::rename by default); returns the previous one. Only for tests that need a
+// rename to fail halfway through a commit, which no file system arranges on request.
+using RenameFunction = int (*)(const char* from, const char* to);
+RenameFunction exchangeCommitRenameForTesting(RenameFunction rename);
+
 // Installs SIGINT and SIGTERM handlers that remove every temporary writeAtomically (or checkOutputDirectory's
 // probe) has open and end the process with status 128 + signal (130, 143). Call once, early in main().
 void installSignalCleanup();

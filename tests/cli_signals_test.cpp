@@ -1,0 +1,167 @@
+// A bake killed at random moments (SIGINT, SIGTERM, SIGKILL) leaves the previous outputs whole, and no
+// temporary survives: the killed process removes its own on SIGINT and SIGTERM, the next run those of a
+// process killed by SIGKILL.
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "support/test_paths.h"
+#include "tools/atomic_file.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string readFile(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+// Two point lights at 512^2 and a sun at 1024^2 over the fog sphere: a bake whose trace and write phases
+// both take a noticeable share of a second, so that random kills land in each.
+void writeScene(const fs::path& scene, double sunX) {
+  std::ofstream(scene) << R"({ "version": 1,
+  "assets": { "ball": { "file": ")" << (vs::test::sharedAssets() / "vdb" / "oiio_fog_sphere.vdb").string() << R"(" } },
+  "instances": [ { "asset": "ball" }, { "asset": "ball", "translate": [1.2, 0.3, 0] } ],
+  "lights": [ { "name": "sun", "type": "directional", "direction": [)" << sunX << R"(, -1, -0.3],
+                "shadow": { "resolution": 1024 } },
+              { "name": "a", "type": "point", "position": [0, 2, 1], "range": 9, "shadow": { "resolution": 512 } },
+              { "name": "b", "type": "point", "position": [1, 2, -1], "range": 9, "shadow": { "resolution": 512 } } ] })";
+}
+
+struct Outputs {
+  std::string exr, sidecar, preview;
+  bool operator==(const Outputs&) const = default;
+};
+
+// The EXR's bytes with the write time (OpenEXR's "capDate" attribute, which OpenImageIO sets) blanked, so that
+// two bakes of one scene compare equal.
+std::string withoutWriteTime(std::string exr) {
+  const std::string name("capDate\0string\0", 15);
+  for (std::size_t at = exr.find(name); at != std::string::npos; at = exr.find(name, at + 1))
+    for (std::size_t i = at + name.size(); i < std::min(exr.size(), at + name.size() + 4 + 19); ++i) exr[i] = '\0';
+  return exr;
+}
+
+Outputs readOutputs(const fs::path& dir) {
+  return {withoutWriteTime(readFile(dir / "out.exr")), readFile(dir / "out.exr.json"), readFile(dir / "out.png")};
+}
+
+// Starts `voxshadow bake scene -o dir/out.exr --preview dir/out.png --backend cpu`, output discarded.
+pid_t startBake(const fs::path& scene, const fs::path& dir) {
+  const std::string cli = vs::test::cliPath(), sceneArg = scene.string(), exr = (dir / "out.exr").string(),
+                    png = (dir / "out.png").string();
+  pid_t pid = ::fork();
+  if (pid == 0) {
+    int devnull = ::open("/dev/null", O_WRONLY);
+    ::dup2(devnull, 1);
+    ::dup2(devnull, 2);
+    ::execl(cli.c_str(), cli.c_str(), "bake", sceneArg.c_str(), "-o", exr.c_str(), "--preview", png.c_str(),
+            "--backend", "cpu", "--threads", "2", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  return pid;
+}
+
+// Waits until the process has installed its SIGINT handler (bit 2 of SigCgt in /proc/<pid>/status), i.e.
+// has finished loading its libraries and entered main, or has ended. The random kills then fall into the
+// work itself, however long the start takes on a loaded machine.
+void waitUntilHandling(pid_t pid) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < deadline) {
+    std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+    std::string line;
+    bool zombie = false, handling = false;
+    while (std::getline(status, line)) {
+      if (line.rfind("State:", 0) == 0) zombie = line.find('Z') != std::string::npos;
+      if (line.rfind("SigCgt:", 0) == 0) handling = (std::stoull(line.substr(7), nullptr, 16) >> (SIGINT - 1)) & 1u;
+    }
+    if (zombie || handling || !status.eof()) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
+int waitStatus(pid_t pid) {
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return status;
+}
+
+std::vector<std::string> temporaries(const fs::path& dir) {
+  std::vector<std::string> found;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (vs::temporaryWriterPid(e.path().filename().string())) found.push_back(e.path().filename().string());
+  return found;
+}
+
+}  // namespace
+
+TEST(CliSignals, KilledBakesLeaveWholeOutputsAndNoTemporaries) {
+  fs::path dir = vs::test::scratchDir("signals");
+  fs::path sceneA = dir / "a.json", sceneB = dir / "b.json";
+  writeScene(sceneA, -0.4);
+  writeScene(sceneB, 0.4);
+
+  // The two possible complete states, and how long a bake works once started.
+  pid_t pid = startBake(sceneB, dir);
+  waitUntilHandling(pid);
+  auto t0 = std::chrono::steady_clock::now();
+  int status = waitStatus(pid);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  const Outputs b = readOutputs(dir);
+  ASSERT_EQ(WEXITSTATUS(waitStatus(startBake(sceneA, dir))), 0);
+  const Outputs a = readOutputs(dir);
+  ASSERT_FALSE(a.exr == b.exr || a.sidecar == b.sidecar || a.preview == b.preview);
+  ASSERT_EQ(WEXITSTATUS(waitStatus(startBake(sceneA, dir))), 0);
+  ASSERT_TRUE(readOutputs(dir) == a) << "a bake's outputs are not reproducible; the test cannot tell them apart";
+
+  std::mt19937 rng(20261201);
+  std::uniform_real_distribution<double> when(0.0, seconds);
+  int interruptedExits = 0, killedDuringWork = 0;
+  for (int round = 0; round < 24; ++round) {
+    const int sig = round % 3 == 0 ? SIGINT : round % 3 == 1 ? SIGKILL : SIGTERM;
+    SCOPED_TRACE("round " + std::to_string(round) + ", signal " + std::to_string(sig));
+    // Each round starts from A's outputs (the previous round ends with them) and interrupts a bake of B.
+    pid = startBake(sceneB, dir);
+    waitUntilHandling(pid);
+    const double delay = when(rng);
+    std::this_thread::sleep_for(std::chrono::duration<double>(delay));
+    ::kill(pid, sig);
+    status = waitStatus(pid);
+    const bool finished = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    if (!finished) ++killedDuringWork;
+    if (sig == SIGKILL) {
+      EXPECT_TRUE(finished || (WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL));
+    } else {
+      // The handler removes the temporaries and exits with 128 + signal.
+      const bool handled = WIFEXITED(status) && WEXITSTATUS(status) == 128 + sig;
+      EXPECT_TRUE(finished || handled) << "status " << status << " after " << delay << " s of " << seconds;
+      if (handled) ++interruptedExits;
+      EXPECT_EQ(temporaries(dir), std::vector<std::string>{});
+    }
+    const Outputs now = readOutputs(dir);
+    EXPECT_TRUE(now == a || now == b) << "outputs of two bakes mixed, or one of them partial";
+    if (finished) {
+      EXPECT_TRUE(now == b);
+    }
+    // The next run into the directory removes what a SIGKILL left, whether it then completes or not.
+    ASSERT_EQ(WEXITSTATUS(waitStatus(startBake(sceneA, dir))), 0);
+    EXPECT_EQ(temporaries(dir), std::vector<std::string>{});
+    EXPECT_TRUE(readOutputs(dir) == a);
+  }
+  // The kills must really have landed while work was going on, not only after it.
+  EXPECT_GE(killedDuringWork, 12);
+  EXPECT_GE(interruptedExits, 8);
+}
