@@ -9,6 +9,7 @@
 
 #include "voxel/error.h"
 #include "voxel/valid_range.h"
+#include "voxel/vox_scene.h"
 
 namespace vs {
 
@@ -30,12 +31,16 @@ double voxelsFromBox(const glm::dvec3& p, const VoxelBox& box) {
 // The checks that need loaded objects: each instance's voxels stay within the coordinate range, and every
 // ray origin stays within limits::kMaxRayVoxels of every object, in that object's voxels (a spot light 1 km
 // from a 1 mm voxel plate would otherwise need float voxel coordinates beyond their exact range).
+// `sources` names each instance's scene-file instance (a .vox asset places several per scene instance).
 void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects, std::span<const SceneInstance> instances,
-                    const Aabb& worldBounds) {
+                    std::span<const std::size_t> sources, const Aabb& worldBounds) {
   const std::string file = desc.file.string();
+  auto named = [&](std::size_t i) {
+    return "instances[" + std::to_string(sources[i]) + "] (asset '" + desc.instances[sources[i]].asset + "')";
+  };
   for (std::size_t i = 0; i < instances.size(); ++i) {
     const VoxelBox box = objects[instances[i].object].brickmap.bounds();
-    const std::string where = file + ": instances[" + std::to_string(i) + "] (asset '" + desc.instances[i].asset + "')";
+    const std::string where = file + ": " + named(i);
     if (box.empty()) continue;
     for (int c = 0; c < 8; ++c) {
       glm::dvec4 p((c & 1) ? box.max.x : box.min.x, (c & 2) ? box.max.y : box.min.y, (c & 4) ? box.max.z : box.min.z, 1.0);
@@ -69,8 +74,7 @@ void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects,
       if (worst > limits::kMaxRayVoxels)
         throwBadInput(file + ": lights[" + std::to_string(li) + "]" +
                       (light.type == LightType::Directional ? ": the scene's extent" : ".position: the light") + " is " +
-                      num(worst) + " voxels from instances[" + std::to_string(i) + "] (asset '" + desc.instances[i].asset +
-                      "'); rays are exact only within " + num(limits::kMaxRayVoxels) +
+                      num(worst) + " voxels from " + named(i) + "; rays are exact only within " + num(limits::kMaxRayVoxels) +
                       " voxels of an object (move the light closer or use coarser voxels)");
     }
   }
@@ -85,38 +89,63 @@ Scene Scene::load(SceneDesc desc) {
   scene.desc_ = std::move(desc);
   const std::filesystem::path& sceneFile = scene.desc_.file;
   scene.objects_.reserve(scene.desc_.assets.size());
-  for (const AssetDesc& asset : scene.desc_.assets) {
-    LoadOptions options;
-    options.grid = asset.grid;
-    options.densityThreshold = asset.densityThreshold;
-    options.color = asset.color;
+  // Per asset: each placement's object (absolute index) and brick-to-asset map.
+  std::vector<std::vector<std::pair<std::uint32_t, glm::dmat4>>> placements(scene.desc_.assets.size());
+  for (std::size_t a = 0; a < scene.desc_.assets.size(); ++a) {
+    const AssetDesc& asset = scene.desc_.assets[a];
+    const std::size_t first = scene.objects_.size();
+    std::vector<std::string> notes;
     try {
-      scene.objects_.push_back(loadVdb(asset.file.string(), options));
+      if (asset.vox) {
+        VoxAssetOptions options;
+        options.voxelSize = asset.voxelSize;
+        options.model = asset.model;
+        options.frame = asset.frame;
+        VoxAsset vox = loadVox(asset.file.string(), options);
+        for (const VoxPlacement& p : vox.placements)
+          placements[a].push_back({std::uint32_t(first + p.object), p.brickToAsset});
+        for (VoxelObject& o : vox.objects) scene.objects_.push_back(std::move(o));
+        notes = std::move(vox.notes);
+      } else {
+        LoadOptions options;
+        options.grid = asset.grid;
+        options.densityThreshold = asset.densityThreshold;
+        options.color = asset.color;
+        scene.objects_.push_back(loadVdb(asset.file.string(), options));
+        placements[a].push_back({std::uint32_t(first), scene.objects_.back().brickToObject});
+      }
     } catch (const Error& e) {
       throw Error(e.kind(), sceneFile.string() + ": assets." + asset.name + ": " + e.what());
     }
+    scene.assetObjects_.push_back({first, scene.objects_.size() - first});
+    scene.assetNotes_.push_back(std::move(notes));
   }
   scene.instances_.reserve(scene.desc_.instances.size());
-  for (std::size_t i = 0; i < scene.desc_.instances.size(); ++i) {
-    const InstanceDesc& inst = scene.desc_.instances[i];
-    SceneInstance placed;
-    placed.object = std::uint32_t(inst.assetIndex);
-    placed.brickToWorld = inst.transform * scene.objects_[inst.assetIndex].brickToObject;
-    // The product of two valid transforms can still collapse (a scale that cancels a voxel size is fine, but
-    // one whose product leaves float range is not): refuse it here, where the file and instance are known.
-    glm::dmat3 linear(placed.brickToWorld);
-    double det = glm::determinant(linear);
-    double cols = glm::length(linear[0]) * glm::length(linear[1]) * glm::length(linear[2]);
-    if (!std::isfinite(det) || !(std::abs(det) > 1e-12 * cols))
-      throwBadInput(sceneFile.string() + ": instances[" + std::to_string(i) + "]: the transform times asset '" +
-                    inst.asset + "''s voxel transform is singular (not invertible)");
-    scene.instances_.push_back(placed);
+  for (std::size_t s = 0; s < scene.desc_.instances.size(); ++s) {
+    const InstanceDesc& inst = scene.desc_.instances[s];
+    for (const auto& [object, brickToAsset] : placements[inst.assetIndex]) {
+      SceneInstance placed;
+      placed.object = object;
+      placed.brickToWorld = inst.transform * brickToAsset;
+      // The product of two valid transforms can still collapse (a scale that cancels a voxel size is fine, but
+      // one whose product leaves float range is not): refuse it here, where the file and instance are known.
+      glm::dmat3 linear(placed.brickToWorld);
+      double det = glm::determinant(linear);
+      double cols = glm::length(linear[0]) * glm::length(linear[1]) * glm::length(linear[2]);
+      if (!std::isfinite(det) || !(std::abs(det) > 1e-12 * cols))
+        throwBadInput(sceneFile.string() + ": instances[" + std::to_string(s) + "]: the transform times asset '" +
+                      inst.asset + "''s voxel transform is singular (not invertible)");
+      scene.instances_.push_back(placed);
+      scene.brickToAsset_.push_back(brickToAsset);
+      scene.instanceSource_.push_back(s);
+    }
+    scene.sourceInstances_.push_back(placements[inst.assetIndex].size());
   }
   std::vector<const Brickmap*> brickmaps;
   brickmaps.reserve(scene.objects_.size());
   for (const VoxelObject& object : scene.objects_) brickmaps.push_back(&object.brickmap);
   scene.data_ = SceneData::build(brickmaps, scene.instances_);
-  checkPlacement(scene.desc_, scene.objects_, scene.instances_, scene.data_.worldBounds);
+  checkPlacement(scene.desc_, scene.objects_, scene.instances_, scene.instanceSource_, scene.data_.worldBounds);
   return scene;
 }
 
@@ -130,8 +159,8 @@ void Scene::moveInstance(std::size_t i, const glm::dmat4& transform) {
       transform[2][3] != 0.0 || transform[3][3] != 1.0)
     throwBadInput("moveInstance: instance " + std::to_string(i) + ": transform must be affine and invertible");
   SceneInstance& inst = instances_[i];
-  inst.brickToWorld = transform * objects_[inst.object].brickToObject;
-  desc_.instances[i].transform = transform;
+  inst.brickToWorld = transform * brickToAsset_[i];
+  if (sourceInstances_[instanceSource_[i]] == 1) desc_.instances[instanceSource_[i]].transform = transform;
   data_.moveInstance(i, inst.brickToWorld);
 }
 

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <span>
+#include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -18,14 +19,25 @@ namespace vs {
 
 class Scene {
  public:
-  // Parses the scene file, loads every asset once (object index = asset index in file order), places the
-  // instances and builds the trace arrays. Preconditions: none; every problem is a vs::Error naming the file
-  // and JSON path (an asset's load error keeps its kind and reads "<scene>: assets.<name>: <loader message>").
+  // Parses the scene file, loads every asset once (a .vdb asset is one object, a .vox asset one object per
+  // distinct model it places; objects in asset order), places the instances (a scene instance of a .vox
+  // asset becomes one instance per placement, its transform applied to the whole scene graph) and builds
+  // the trace arrays. Preconditions: none; every problem is a vs::Error naming the file and JSON path (an
+  // asset's load error keeps its kind and reads "<scene>: assets.<name>: <loader message>").
   // Also refuses (BadInput) instances that reach beyond limits::kMaxCoordinate and shadowed lights farther
   // than limits::kMaxRayVoxels from an object, in its voxels (voxel/valid_range.h).
   static Scene load(const std::filesystem::path& sceneFile);
   // The same from a parsed description (parseSceneFile), e.g. after checking its paths.
   static Scene load(SceneDesc desc);
+
+  struct ObjectRange {
+    std::size_t first = 0, count = 0;  // objects()[first, first + count)
+  };
+  // Per asset (desc().assets order): its objects, and the loader's notes (.vox: choices it made).
+  std::span<const ObjectRange> assetObjects() const { return assetObjects_; }
+  const std::vector<std::string>& assetNotes(std::size_t asset) const { return assetNotes_[asset]; }
+  // Per instance: the scene-file instance (index into desc().instances) it was placed from.
+  std::span<const std::size_t> instanceSources() const { return instanceSource_; }
 
   const SceneDesc& desc() const { return desc_; }
   std::span<const VoxelObject> objects() const { return objects_; }
@@ -36,15 +48,21 @@ class Scene {
   // The shadow views of the current lights over the current world bounds.
   std::vector<LightView> lightViews() const { return buildLightViews(desc_, data_.worldBounds); }
 
-  // Places instance i with a new object-to-world transform and updates the trace arrays (refit or rebuild).
-  // Preconditions: i < instances().size() and transform affine and invertible; throws vs::Error(BadInput)
-  // otherwise.
+  // Places instance i with a new asset-to-world transform (what the scene file's instance transform is:
+  // a .vox placement keeps its place within its asset) and updates the trace arrays (refit or rebuild).
+  // desc() follows when the instance is its scene instance's only one. Preconditions: i < instances().size()
+  // and transform affine and invertible; throws vs::Error(BadInput) otherwise.
   void moveInstance(std::size_t i, const glm::dmat4& transform);
 
  private:
   SceneDesc desc_;
   std::vector<VoxelObject> objects_;
   std::vector<SceneInstance> instances_;
+  std::vector<glm::dmat4> brickToAsset_;      // per instance
+  std::vector<std::size_t> instanceSource_;   // per instance
+  std::vector<std::size_t> sourceInstances_;  // per scene-file instance: how many instances it became
+  std::vector<ObjectRange> assetObjects_;
+  std::vector<std::vector<std::string>> assetNotes_;
   SceneData data_;
 };
 

@@ -1,6 +1,8 @@
 // scene_file.cpp: strict parser of the JSON scene file, version 1 (DESIGN.md §8).
 #include "lighting/scene_file.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cfloat>
 #include <cmath>
 #include <fstream>
@@ -303,15 +305,22 @@ class Parser {
       if (it.key().empty()) fail("assets", "asset names must not be empty");
       const Json& a = it.value();
       requireObject(a, path);
-      checkKeys(a, path, {"file", "grid", "density_threshold", "color"});
       AssetDesc asset;
       asset.name = it.key();
       std::string file = string(required(a, path, "file"), key(path, "file"));
       if (file.empty()) fail(key(path, "file"), "must not be empty");
+      asset.vox = isVoxPath(file);
+      if (asset.vox) checkKeys(a, path, {"file", "voxel_size", "model", "frame"}, " for a .vox asset");
+      else checkKeys(a, path, {"file", "grid", "density_threshold", "color"});
       std::filesystem::path resolved = file;
       if (resolved.is_relative()) resolved = file_.parent_path() / resolved;
       if (std::string kind = fileKindProblem(resolved); !kind.empty()) fail(key(path, "file"), resolved.string() + ": " + kind);
       asset.file = resolved;
+      if (asset.vox) {
+        parseVoxAsset(a, path, asset);
+        scene.assets.push_back(std::move(asset));
+        continue;
+      }
       if (auto g = a.find("grid"); g != a.end()) {
         if (g->is_string()) {
           asset.grid = g->get<std::string>();
@@ -327,6 +336,40 @@ class Parser {
       asset.densityThreshold = number(a, path, "density_threshold", asset.densityThreshold);
       asset.color = color(a, path, "color", asset.color);
       scene.assets.push_back(std::move(asset));
+    }
+  }
+
+  static bool isVoxPath(const std::string& file) {
+    std::string ext = std::filesystem::path(file).extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return ext == ".vox";
+  }
+
+  void parseVoxAsset(const Json& a, const std::string& path, AssetDesc& asset) const {
+    if (auto v = a.find("voxel_size"); v != a.end()) {
+      asset.voxelSize = number(*v, key(path, "voxel_size"));
+      // Bounded like a .vdb asset's voxel size (voxel/valid_range.h).
+      if (!(asset.voxelSize >= limits::kMinVoxelSize && asset.voxelSize <= limits::kMaxVoxelSize))
+        fail(key(path, "voxel_size"), "must be between " + fmt(limits::kMinVoxelSize) + " and " +
+                                          fmt(limits::kMaxVoxelSize) + ", not " + fmt(asset.voxelSize));
+    }
+    if (auto m = a.find("model"); m != a.end()) {
+      if (m->is_string()) {
+        asset.model = m->get<std::string>();
+        if (asset.model.empty()) fail(key(path, "model"), "must not be empty");
+        if (std::all_of(asset.model.begin(), asset.model.end(), [](unsigned char c) { return std::isdigit(c); }))
+          fail(key(path, "model"), "a shape name made of digits reads as an index: give the index as a number");
+      } else if (m->is_number()) {
+        int mi = integer(*m, key(path, "model"));
+        if (mi < 0) fail(key(path, "model"), "a model index must not be negative");
+        asset.model = std::to_string(mi);
+      } else {
+        fail(key(path, "model"), "must be a model index (integer) or a shape name (string), not " + typeName(*m));
+      }
+    }
+    if (auto f = a.find("frame"); f != a.end()) {
+      asset.frame = integer(*f, key(path, "frame"));
+      if (asset.frame < 0) fail(key(path, "frame"), "must not be negative");
     }
   }
 

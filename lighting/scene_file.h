@@ -18,6 +18,11 @@ struct AssetDesc {
   std::string grid;                 // name or decimal index as vs::LoadOptions::grid takes it; empty: automatic
   float densityThreshold = 0.0f;
   glm::vec3 color{0.8f, 0.8f, 0.8f};
+  // .vox assets (file name ending in .vox, any case) take these instead of grid, density_threshold, color.
+  bool vox = false;
+  double voxelSize = 1.0;  // world units per voxel, > 0
+  std::string model;       // vs::VoxAssetOptions::model: empty, a decimal index or a shape name
+  int frame = 0;           // animation frame, >= 0
 };
 
 struct InstanceDesc {

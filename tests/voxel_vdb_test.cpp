@@ -160,6 +160,7 @@ TEST(VdbLoad, DemoWorldRoundTrip) {
     EXPECT_NE(text.find(k), std::string::npos) << k;
   std::uint64_t total = 0;
   for (std::size_t i = 0; i + 1 < written.size(); ++i) {
+    if (fs::path(written[i]).extension() != ".vdb") continue;  // the demo's .vox asset: voxel_vox_test
     roundTripFile(written[i]);
     total += vs::loadVdb(written[i]).brickmap.solidCount();
   }

@@ -106,7 +106,22 @@ json sceneInfo(const fs::path& file) {
   json j = {{"file", file.string()}, {"kind", "scene"}};
   json assets = json::array();
   for (std::size_t i = 0; i < desc.assets.size(); ++i) {
-    const VoxelObject& o = scene.objects()[i];
+    const Scene::ObjectRange range = scene.assetObjects()[i];
+    if (desc.assets[i].vox) {
+      json objects = json::array();
+      std::uint64_t solid = 0;
+      for (std::size_t k = range.first; k < range.first + range.count; ++k) {
+        const VoxelObject& o = scene.objects()[k];
+        solid += o.brickmap.solidCount();
+        objects.push_back({{"model", o.gridIndex}, {"solidVoxels", o.brickmap.solidCount()},
+                           {"brickmap", memoryJson(o.brickmap.memory(), o.brickmap.solidCount())}});
+      }
+      assets.push_back({{"name", desc.assets[i].name}, {"file", desc.assets[i].file.string()}, {"kind", "vox"},
+                        {"voxelSize", desc.assets[i].voxelSize}, {"solidVoxels", solid},
+                        {"objects", std::move(objects)}, {"notes", scene.assetNotes(i)}});
+      continue;
+    }
+    const VoxelObject& o = scene.objects()[range.first];
     assets.push_back({{"name", desc.assets[i].name},
                       {"file", desc.assets[i].file.string()},
                       {"grid", o.gridName},
@@ -152,6 +167,13 @@ json sceneInfo(const fs::path& file) {
 void printScene(const json& j) {
   std::printf("%s: scene\n", j["file"].get<std::string>().c_str());
   for (const json& a : j["assets"]) {
+    if (a.value("kind", "") == "vox") {
+      std::printf("  asset %s: %s, %zu object%s, voxel size %g, %llu solid voxels\n", a["name"].get<std::string>().c_str(),
+                  a["file"].get<std::string>().c_str(), a["objects"].size(), a["objects"].size() == 1 ? "" : "s",
+                  a["voxelSize"].get<double>(), a["solidVoxels"].get<unsigned long long>());
+      for (const json& n : a["notes"]) std::printf("    note: %s\n", n.get<std::string>().c_str());
+      continue;
+    }
     std::printf("  asset %s: %s grid '%s' (#%d), %s, %llu solid voxels\n", a["name"].get<std::string>().c_str(),
                 a["file"].get<std::string>().c_str(), a["grid"].get<std::string>().c_str(), a["gridIndex"].get<int>(),
                 a["rule"].get<std::string>().c_str(), a["solidVoxels"].get<unsigned long long>());
@@ -183,11 +205,13 @@ void printScene(const json& j) {
 
 json fileInfo(const fs::path& file) {
   if (file.extension() == ".json") return sceneInfo(file);
+  if (file.extension() == ".vox") return voxFileInfo(file);
   return vdbInfo(file);
 }
 
 void printFile(const json& j) {
   if (j["kind"] == "scene") printScene(j);
+  else if (j["kind"] == "vox") printVoxFile(j);
   else printVdb(j);
 }
 
@@ -202,8 +226,8 @@ void registerInfo(CLI::App& app) {
     bool devices = false;
   };
   auto options = std::make_shared<Options>();
-  CLI::App* sub = app.add_subcommand("info", "Describe .vdb files (grids, solid voxels, brickmap memory) and scenes");
-  sub->add_option("FILE", options->files, ".vdb files or .json scene files");
+  CLI::App* sub = app.add_subcommand("info", "Describe .vdb and .vox files (grids or models, solid voxels, brickmap memory) and scenes");
+  sub->add_option("FILE", options->files, ".vdb, .vox or .json scene files");
   sub->add_flag("--json", options->json, "Print one JSON document instead of text");
   sub->add_flag("--devices", options->devices,
                 "List the Vulkan devices (index, name, type, driver, limits the trace uses) for bake --device");

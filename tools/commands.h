@@ -9,6 +9,7 @@
 #include <string>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 namespace vs::cli {
 
@@ -16,6 +17,7 @@ void registerInfo(CLI::App& app);  // voxshadow info FILE... [--json] | info --d
 void registerDemo(CLI::App& app);  // voxshadow demo [--out DIR]
 void registerBake(CLI::App& app);  // voxshadow bake SCENE -o OUT.exr [--backend] [--device] [--preview] [--threads] [--stats]
 void registerBench(CLI::App& app); // voxshadow bench [--threads N] [--resolution R] [--reps K] [--vulkan]
+void registerConvert(CLI::App& app); // voxshadow convert IN.vox OUT.vdb [--frame F]
 
 struct BakeOptions {
   std::filesystem::path scene;
@@ -36,8 +38,12 @@ void runBake(const BakeOptions& options);
 // one JSON array. Throws vs::Error(Runtime) when Vulkan cannot start; prints an empty list when it has no device.
 void printVulkanDevices(bool asJson);
 
-// Prints `info` of one file (.vdb or .json scene) to stdout. Throws vs::Error naming the file.
+// Prints `info` of one file (.vdb, .vox or .json scene) to stdout. Throws vs::Error naming the file.
 void printInfo(const std::filesystem::path& file);
+
+// `info` of a .vox file as JSON, and as text. Preconditions: none; the reader's errors propagate.
+nlohmann::json voxFileInfo(const std::filesystem::path& file);
+void printVoxFile(const nlohmann::json& info);
 
 }  // namespace vs::cli
 

@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
   vs::cli::registerDemo(app);
   vs::cli::registerBake(app);
   vs::cli::registerBench(app);
+  vs::cli::registerConvert(app);
   try {
     // Subcommand callbacks run inside parse(), so their exceptions arrive here too.
     app.parse(argc, argv);

@@ -7,6 +7,7 @@
 #include <openvdb/io/File.h>
 #include <openvdb/tools/LevelSetSphere.h>
 
+#include "voxel/demo_vox.h"
 #include "voxel/error.h"
 #include "voxel/vdb_rules.h"
 
@@ -110,6 +111,8 @@ std::vector<std::string> writeDemoWorld(const std::filesystem::path& dir) {
   auto blob = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(6.0f, openvdb::Vec3f(0.0f, 6.0f, 0.0f), 0.5f);
   blob->setName("ls_blob");
   writeGrid(dir / "blob.vdb", blob, written);
+  writeVoxFile(dir / "crates.vox", demoCratesVox());
+  written.push_back((dir / "crates.vox").string());
 
   const std::filesystem::path scene = dir / "demo.json";
   std::ofstream out(scene);
@@ -120,7 +123,8 @@ std::vector<std::string> writeDemoWorld(const std::filesystem::path& dir) {
     "building": { "file": "building.vdb", "color": [0.75, 0.72, 0.68] },
     "tower": { "file": "tower.vdb", "color": [0.7, 0.65, 0.6] },
     "tree": { "file": "tree.vdb" },
-    "blob": { "file": "blob.vdb", "color": [0.8, 0.3, 0.25] }
+    "blob": { "file": "blob.vdb", "color": [0.8, 0.3, 0.25] },
+    "crates": { "file": "crates.vox", "voxel_size": 0.5 }
   },
   "instances": [
     { "asset": "ground", "translate": [0, -3, 0] },
@@ -131,7 +135,8 @@ std::vector<std::string> writeDemoWorld(const std::filesystem::path& dir) {
     { "asset": "tree", "translate": [0, 0, 10] },
     { "asset": "tree", "translate": [-12, 0, 30], "scale": 1.5 },
     { "asset": "tree", "translate": [35, 0, -12], "rotate_deg": [0, 60, 0] },
-    { "asset": "blob", "translate": [-8, 0, -8] }
+    { "asset": "blob", "translate": [-8, 0, -8] },
+    { "asset": "crates", "translate": [14, 0, 2], "rotate_deg": [0, 20, 0] }
   ],
   "camera": { "position": [70, 45, 70], "target": [0, 5, 0], "up": [0, 1, 0], "fov_deg": 55,
               "near": 0.1, "far": 400, "width": 1280, "height": 720 },

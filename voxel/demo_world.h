@@ -9,7 +9,8 @@
 namespace vs {
 
 // Writes ground.vdb (Int32 palette grid with relief, voxel size 0.5), building.vdb (Int32 palette grid),
-// tower.vdb (bool grid), tree.vdb (vec3s colour grid `Cd`), blob.vdb (level-set sphere) and demo.json
+// tower.vdb (bool grid), tree.vdb (vec3s colour grid `Cd`), blob.vdb (level-set sphere), crates.vox (a
+// MagicaVoxel file with a scene graph, written by voxshadow) and demo.json
 // (scene version 1) into `dir`, creating it if needed. Returns the written paths, the scene file last.
 // Throws vs::Error(Runtime) naming the file when a write fails.
 std::vector<std::string> writeDemoWorld(const std::filesystem::path& dir);

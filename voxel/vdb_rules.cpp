@@ -18,6 +18,7 @@
 
 #include "voxel/error.h"
 #include "voxel/valid_range.h"
+#include "voxel/vox_reader.h"
 
 namespace vs {
 
@@ -252,6 +253,29 @@ SolidExtraction colourGrid(const GridT& grid, ToColour toColour, const std::stri
 
 }  // namespace
 
+namespace {
+
+// `voxshadow convert` stores a .vox palette on each grid as 255 sRGB "rrggbb" words (colour indices 1..255).
+void applyPaletteMetadata(const openvdb::GridBase& g, const std::string& file, std::vector<glm::vec3>& palette) {
+  openvdb::StringMetadata::ConstPtr meta = g.getMetadata<openvdb::StringMetadata>("voxshadow:palette");
+  if (!meta) return;
+  const std::string& s = meta->value();
+  if (s.size() != 255 * 7 - 1)
+    throwBadInput(file + ": " + gridLabel(g) + ": voxshadow:palette metadata is not 255 rrggbb words");
+  for (std::size_t i = 0; i < 255; ++i) {
+    unsigned rgb = 0;
+    for (std::size_t k = 0; k < 6; ++k) {
+      char c = s[i * 7 + k];
+      int d = c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : -1;
+      if (d < 0) throwBadInput(file + ": " + gridLabel(g) + ": voxshadow:palette metadata is not 255 rrggbb words");
+      rgb = rgb << 4 | unsigned(d);
+    }
+    palette[i + 1] = {srgbToLinear(std::uint8_t(rgb >> 16)), srgbToLinear(std::uint8_t(rgb >> 8)), srgbToLinear(std::uint8_t(rgb))};
+  }
+}
+
+}  // namespace
+
 std::uint8_t integerMaterial(std::int64_t v) {
   std::int64_t m = (v - 1) % 255;
   if (m < 0) m += 255;
@@ -311,6 +335,7 @@ SolidExtraction extractSolid(const openvdb::GridBase& g, const LoadOptions& opti
     out.voxels = collect(*ig, false, [](std::int32_t v) { return v != 0; },
                          [](std::int32_t v) { return integerMaterial(v); }, file);
     out.palette = integerPalette(options.color);
+    applyPaletteMetadata(g, file, out.palette);
     return out;
   } else if (const auto* lg = dynamic_cast<const openvdb::Int64Grid*>(&g)) {
     out.voxels = collect(*lg, false, [](std::int64_t v) { return v != 0; },
