@@ -132,6 +132,27 @@ TEST(CliVox, ConvertRoundTripsEveryModel) {
       EXPECT_NEAR(w.y(), expect.y, 1e-9);
       EXPECT_NEAR(w.z(), expect.z, 1e-9);
     }
+    // And OpenVDB's own vdb_print (libopenvdb-tools, installed by tools/install-deps.sh) lists every grid
+    // with its voxel count.
+    ASSERT_EQ(test::runCommand("vdb_print -l " + quote(vdb), out), 0) << out;
+    std::vector<std::string> counts;  // "Number of active voxels:   98,304", one per grid in its order
+    const std::string label = "Number of active voxels:";
+    for (std::size_t at = out.find(label); at != std::string::npos; at = out.find(label, at + 1)) {
+      std::size_t b = out.find_first_not_of(' ', at + label.size()), e = out.find('\n', b);
+      counts.push_back(out.substr(b, e - b));
+    }
+    ASSERT_EQ(counts.size(), f.models.size()) << out;
+    for (std::size_t i = 0; i < f.models.size(); ++i) {
+      EXPECT_TRUE(out.find("Name: " + gridName(i)) != std::string::npos) << out;
+      const std::string digits = std::to_string(f.models[i].voxels.size());
+      std::string count;  // with thousands separators, as vdb_print writes it
+      for (std::size_t k = 0; k < digits.size(); ++k) {
+        if (k > 0 && (digits.size() - k) % 3 == 0) count.push_back(',');
+        count.push_back(digits[k]);
+      }
+      EXPECT_TRUE(std::find(counts.begin(), counts.end(), count) != counts.end())
+          << "model " << i << " (" << count << " voxels): " << out;
+    }
   }
 }
 

@@ -9,7 +9,7 @@ packages=(
   mesa-vulkan-drivers libvulkan-dev vulkan-validationlayers vulkan-tools
   glslang-tools glslang-dev
   libglm-dev
-  libopenvdb-dev libboost-iostreams-dev libtbb-dev
+  libopenvdb-dev libopenvdb-tools libboost-iostreams-dev libtbb-dev
   libopenimageio-dev openimageio-tools
   libgtest-dev libcli11-dev nlohmann-json3-dev
   clang-14 libclang-rt-14-dev llvm-14
