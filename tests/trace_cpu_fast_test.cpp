@@ -331,23 +331,13 @@ namespace vs {
 
 // A ray with a NaN or infinite component is a miss on every CPU path, never a voxel index out of range.
 TEST(TraceCpuFast, NonFiniteRaysAreMisses) {
-  std::vector<test::TestScene> scenes;
-  scenes.push_back(test::floorScene());
-  scenes.push_back(test::manyInstancesScene(40));
-  for (const test::TestScene& scene : scenes) {
+  for (const test::TestScene& scene : test::hostileViewScenes()) {
     SCOPED_TRACE(scene.name);
     std::vector<test::HostileView> hostile = test::hostileViews(scene.data.worldBounds);
-    std::vector<gpu::TraceView> views;
-    for (const auto& h : hostile) views.push_back(h.view);
     for (CpuTracePath path : {CpuTracePath::Reference, CpuTracePath::Interleaved}) {
       std::vector<ShadowLayer> layers;
-      traceCpu(scene.data, views, layers, path, 2);
-      ASSERT_EQ(layers.size(), views.size());
-      for (std::size_t i = 0; i < views.size(); ++i)
-        for (float t : layers[i].texels) {
-          if (std::isnan(hostile[i].miss)) ASSERT_TRUE(std::isnan(t)) << "view " << i;
-          else ASSERT_EQ(t, hostile[i].miss) << "view " << i;
-        }
+      traceCpu(scene.data, test::traceViewsOf(hostile), layers, path, 2);
+      test::expectAllMisses(hostile, layers);
     }
   }
 }

@@ -7,6 +7,9 @@
 #include <limits>
 #include <vector>
 
+#include <gtest/gtest.h>
+
+#include "compute/cpu/cpu_tracer.h"
 #include "support/test_scenes.h"
 
 namespace vs::test {
@@ -38,6 +41,31 @@ inline std::vector<HostileView> hostileViews(const Aabb& bounds) {
   v.origin.w = nan;
   out.push_back({v, nan});
   return out;
+}
+
+// The trace records of hostile views.
+inline std::vector<gpu::TraceView> traceViewsOf(const std::vector<HostileView>& hostile) {
+  std::vector<gpu::TraceView> views;
+  for (const auto& h : hostile) views.push_back(h.view);
+  return views;
+}
+
+// The scenes the hostile views are traced over: one instance (the single-instance lane driver) and many.
+inline std::vector<TestScene> hostileViewScenes() {
+  std::vector<TestScene> scenes;
+  scenes.push_back(floorScene());
+  scenes.push_back(manyInstancesScene(40));
+  return scenes;
+}
+
+// Every texel of each layer holds its view's miss value (NaN where that is NaN).
+inline void expectAllMisses(const std::vector<HostileView>& hostile, const std::vector<ShadowLayer>& layers) {
+  ASSERT_EQ(layers.size(), hostile.size());
+  for (std::size_t i = 0; i < hostile.size(); ++i)
+    for (float t : layers[i].texels) {
+      if (std::isnan(hostile[i].miss)) ASSERT_TRUE(std::isnan(t)) << "view " << i;
+      else ASSERT_EQ(t, hostile[i].miss) << "view " << i;
+    }
 }
 
 }  // namespace vs::test
