@@ -21,20 +21,28 @@ struct Affine {
   vec4 row2;
 };
 
+// Both affines are taken about the instance's anchor (a float point near the instance, exact as stored): a
+// world point p enters brick space as worldToBrick(p - anchor), and brickToWorld gives p - anchor. The
+// anchor's own brick coordinates are rounded once, from double, so that rays re-based near the instance
+// (compute/shared/traverse.h, vsInstanceRay) keep their precision however far from the world origin it lies.
 struct InstanceRecord {
-  Affine worldToBrick;  // world space -> the object's brick space (index + 0.5)
-  Affine brickToWorld;  // its inverse
+  Affine worldToBrick;  // world space relative to the anchor -> the object's brick space (index + 0.5)
+  Affine brickToWorld;  // its inverse: brick space -> world space relative to the anchor
   vec4 boundsMin;       // world AABB of the instance (xyz)
   vec4 boundsMax;
   uvec4 info;           // x: object index, y: instance id (user-visible), zw: reserved
+  vec4 anchor;          // xyz: the anchor in world space; w: 0
 };
 
 // The records read as 16-byte texels (a shader may fetch them from an RGBA32 texel buffer): a node is
 // (boundsMin, rightOrFirst), (boundsMax, count); an instance's members are one texel each, an Affine three.
 const uint VS_NODE_TEXELS = 2u;
-const uint VS_INSTANCE_TEXELS = 9u;
+const uint VS_INSTANCE_TEXELS = 10u;
 const uint VS_INSTANCE_BRICK_TO_WORLD_TEXEL = 3u;
+const uint VS_INSTANCE_BOUNDS_MIN_TEXEL = 6u;
+const uint VS_INSTANCE_BOUNDS_MAX_TEXEL = 7u;
 const uint VS_INSTANCE_INFO_TEXEL = 8u;
+const uint VS_INSTANCE_ANCHOR_TEXEL = 9u;
 
 VS_NAMESPACE_END
 
@@ -47,9 +55,10 @@ VS_OFFSET_CHECK(BvhNode, count, 28);
 VS_LAYOUT_CHECK(Affine, 48);
 VS_LAYOUT_CHECK(InstanceRecord, 16 * VS_INSTANCE_TEXELS);
 VS_OFFSET_CHECK(InstanceRecord, brickToWorld, 16 * VS_INSTANCE_BRICK_TO_WORLD_TEXEL);
-VS_OFFSET_CHECK(InstanceRecord, boundsMin, 96);
-VS_OFFSET_CHECK(InstanceRecord, boundsMax, 112);
+VS_OFFSET_CHECK(InstanceRecord, boundsMin, 16 * VS_INSTANCE_BOUNDS_MIN_TEXEL);
+VS_OFFSET_CHECK(InstanceRecord, boundsMax, 16 * VS_INSTANCE_BOUNDS_MAX_TEXEL);
 VS_OFFSET_CHECK(InstanceRecord, info, 16 * VS_INSTANCE_INFO_TEXEL);
+VS_OFFSET_CHECK(InstanceRecord, anchor, 16 * VS_INSTANCE_ANCHOR_TEXEL);
 }  // namespace vs::gpu
 #endif
 

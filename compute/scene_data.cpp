@@ -42,9 +42,19 @@ gpu::InstanceRecord makeInstanceRecord(const glm::dmat4& brickToWorld, const Vox
     throwBadInput("instance " + std::to_string(instanceId) + ": transform is singular");
   }
   gpu::InstanceRecord rec{};
-  rec.brickToWorld = toAffine(brickToWorld);
-  rec.worldToBrick = toAffine(glm::inverse(brickToWorld));
+  // The anchor: the centre of the object's voxels in world space, rounded to float once; both affines are taken
+  // about it in double, so the only rounding left in a re-based ray is that of the record's own entries.
+  glm::dvec3 centre = objectVoxels.empty()
+                          ? glm::dvec3(0.0)
+                          : (glm::dvec3(objectVoxels.min) + glm::dvec3(objectVoxels.max)) * 0.5;
+  glm::vec3 anchor(glm::dvec3(brickToWorld * glm::dvec4(centre, 1.0)));
+  glm::dmat4 toAnchor(1.0), fromAnchor(1.0);
+  toAnchor[3] = glm::dvec4(-glm::dvec3(anchor), 1.0);
+  fromAnchor[3] = glm::dvec4(glm::dvec3(anchor), 1.0);
+  rec.brickToWorld = toAffine(toAnchor * brickToWorld);
+  rec.worldToBrick = toAffine(glm::inverse(brickToWorld) * fromAnchor);
   rec.info = glm::uvec4(objectIndex, instanceId, 0u, 0u);
+  rec.anchor = glm::vec4(anchor, 0.0f);
 
   Aabb box;
   if (!objectVoxels.empty()) {

@@ -26,7 +26,7 @@ glm::dvec3 upFor(const glm::dvec3& forward) {
 }
 
 LightView makeView(const LightDesc& light, int lightIndex, const std::string& name, int encoding,
-                   const glm::dmat4& viewProj, float range) {
+                   const glm::dmat4& viewProj, const glm::dvec3& eye, float range) {
   LightView v;
   v.light = light.name;
   v.name = name;
@@ -37,9 +37,16 @@ LightView makeView(const LightDesc& light, int lightIndex, const std::string& na
   v.range = range;
   v.position = encoding == gpu::VS_ENCODING_LINEAR_DISTANCE ? light.position : glm::vec3(0.0f);
   v.viewProj = glm::mat4(viewProj);
-  v.trace = gpu::makeTraceView(viewProj, v.resolution, v.resolution, encoding, v.depthPoint,
-                                glm::vec4(v.position, range));
+  v.eye = eye;
+  v.eyeToClip = gpu::eyeToClip(viewProj, eye);
+  v.trace = gpu::makeTraceView(viewProj, eye, v.resolution, v.resolution, encoding, v.depthPoint, range);
   return v;
+}
+
+// The centre of the bounds a directional view covers: the eye of its rays.
+glm::dvec3 directionalEye(const Aabb& worldBounds) {
+  if (worldBounds.empty()) return glm::dvec3(0.0);
+  return (glm::dvec3(worldBounds.min) + glm::dvec3(worldBounds.max)) * 0.5;
 }
 
 glm::dmat4 directionalViewProj(const glm::dvec3& forward, const Aabb& worldBounds) {
@@ -81,7 +88,7 @@ std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& world
       case LightType::Directional: {
         glm::dvec3 forward = glm::normalize(glm::dvec3(light.direction));
         views.push_back(makeView(light, index, light.name, gpu::VS_ENCODING_NDC_DEPTH,
-                                 directionalViewProj(forward, worldBounds), 1.0f));
+                                 directionalViewProj(forward, worldBounds), directionalEye(worldBounds), 1.0f));
         break;
       }
       case LightType::Spot: {
@@ -91,7 +98,7 @@ std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& world
         glm::dmat4 proj = glm::perspectiveRH_ZO(glm::radians(2.0 * double(light.outerConeDeg)), 1.0,
                                                 range * kNearOverRange, range);
         views.push_back(makeView(light, index, light.name, gpu::VS_ENCODING_LINEAR_DISTANCE, kFlipY * proj * view,
-                                 light.range));
+                                 position, light.range));
         break;
       }
       case LightType::Point: {
@@ -104,7 +111,7 @@ std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& world
         for (int f = 0; f < 6; ++f) {
           glm::dmat4 view = glm::lookAtRH(position, position + kForward[f], kTAxis[f]);
           views.push_back(makeView(light, index, light.name + ".face" + kCubeFaceNames[f],
-                                   gpu::VS_ENCODING_LINEAR_DISTANCE, proj * view, light.range));
+                                   gpu::VS_ENCODING_LINEAR_DISTANCE, proj * view, position, light.range));
         }
         break;
       }

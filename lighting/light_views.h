@@ -23,6 +23,11 @@ struct LightView {
   float range = 1.0f;   // the miss value: 1 for NDC depth views, the light's range for linear distance views
   glm::vec3 position{0.0f};  // spot and point: where rays start
   glm::mat4 viewProj{1.0f};  // world -> Vulkan clip space; texel column (ndc.x*0.5+0.5)*w, row (ndc.y*0.5+0.5)*h
+  // The eye of the view's rays (spot, point: the light; directional: the centre of the scene bounds) and the
+  // view-projection about it (clip = eyeToClip * (p - eye)), both in double: every texel's ray is rebuilt from
+  // them at full precision (DESIGN.md §6, §9).
+  glm::dvec3 eye{0.0};
+  glm::dmat4 eyeToClip{1.0};
   gpu::TraceView trace{};    // the record the trace kernels read (the whole view as its rectangle)
 };
 

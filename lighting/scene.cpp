@@ -29,8 +29,8 @@ double voxelsFromBox(const glm::dvec3& p, const VoxelBox& box) {
 }
 
 // The checks that need loaded objects: each instance's voxels stay within the coordinate range, and every
-// ray origin stays within limits::kMaxRayVoxels of every object, in that object's voxels (a spot light 1 km
-// from a 1 mm voxel plate would otherwise need float voxel coordinates beyond their exact range).
+// ray origin stays within limits::kMaxRayVoxels of every object, in that object's voxels (a spot light 100 km
+// from a 1 mm voxel plate would otherwise re-base its rays too far from the plate for exact depths).
 // `sources` names each instance's scene-file instance (a .vox asset places several per scene instance).
 void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects, std::span<const SceneInstance> instances,
                     std::span<const std::size_t> sources, const Aabb& worldBounds) {

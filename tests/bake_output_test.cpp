@@ -25,8 +25,19 @@ namespace {
 vs::BakedView makeView(std::string light, std::string name, std::string encoding, std::string depthPoint,
                        float range, std::optional<glm::vec3> position, glm::mat4 worldToClip, int w, int h,
                        float seed) {
-  vs::BakedView v{std::move(light), std::move(name), std::move(encoding), std::move(depthPoint), range,
-                  position, worldToClip, w, h, {}};
+  vs::BakedView v;
+  v.light = std::move(light);
+  v.name = std::move(name);
+  v.encoding = std::move(encoding);
+  v.depthPoint = std::move(depthPoint);
+  v.range = range;
+  v.position = position;
+  v.worldToClip = worldToClip;
+  // Values no float holds, so that a reader that rounds them to float shows.
+  v.eye = glm::dvec3(1.0 / 3.0 + seed, 1e4 + 1.0 / 7.0, -2.0 / 3.0);
+  v.eyeToClip = glm::dmat4(glm::dmat4(worldToClip) * (1.0 + 1.0 / 3.0 * 1e-9));
+  v.width = w;
+  v.height = h;
   v.texels.resize(std::size_t(w) * std::size_t(h));
   // Distinct, non-round values per texel so that any reordering (rows flipped, subimages swapped) shows.
   for (std::size_t i = 0; i < v.texels.size(); ++i) v.texels[i] = seed + float(i) * 0.001953125f + 1.0f / 3.0f;
@@ -108,6 +119,19 @@ TEST(BakeOutput, ExrRoundTripsEveryTexelAndAttribute) {
     const float* m = static_cast<const float*>(matrix->data());
     const float* expected = glm::value_ptr(v.worldToClip);
     for (int k = 0; k < 16; ++k) EXPECT_EQ(m[k], expected[k]) << "matrix element " << k;
+    // The eye and the eye-relative matrix keep every bit of their doubles.
+    const OIIO::ParamValue* eye = spec.find_attribute("voxshadow:eye");
+    ASSERT_NE(eye, nullptr);
+    ASSERT_EQ(eye->type().basetype, OIIO::TypeDesc::DOUBLE);
+    ASSERT_EQ(eye->type().numelements() * eye->type().aggregate, 3u);
+    const double* e = static_cast<const double*>(eye->data());
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(e[k], v.eye[k]) << "eye component " << k;
+    const OIIO::ParamValue* eyeToClip = spec.find_attribute("voxshadow:eyeToClip");
+    ASSERT_NE(eyeToClip, nullptr);
+    ASSERT_EQ(eyeToClip->type().basetype, OIIO::TypeDesc::DOUBLE);
+    ASSERT_EQ(eyeToClip->type().numelements() * eyeToClip->type().aggregate, 16u);
+    const double* em = static_cast<const double*>(eyeToClip->data());
+    for (int k = 0; k < 16; ++k) EXPECT_EQ(em[k], glm::value_ptr(v.eyeToClip)[k]) << "eyeToClip element " << k;
     const OIIO::ParamValue* position = spec.find_attribute("voxshadow:position");
     if (v.position) {
       ASSERT_NE(position, nullptr);
@@ -141,6 +165,10 @@ TEST(BakeOutput, ExrRoundTripsEveryTexelAndAttribute) {
     auto m = jv.at("worldToClip").get<std::vector<float>>();
     ASSERT_EQ(m.size(), 16u);
     for (int k = 0; k < 16; ++k) EXPECT_EQ(m[std::size_t(k)], glm::value_ptr(v.worldToClip)[k]);
+    EXPECT_EQ(jv.at("eye").get<std::vector<double>>(), (std::vector<double>{v.eye.x, v.eye.y, v.eye.z}));
+    auto em = jv.at("eyeToClip").get<std::vector<double>>();
+    ASSERT_EQ(em.size(), 16u);
+    for (int k = 0; k < 16; ++k) EXPECT_EQ(em[std::size_t(k)], glm::value_ptr(v.eyeToClip)[k]);
     EXPECT_EQ(jv.contains("position"), v.position.has_value());
     if (v.position) {
       EXPECT_EQ(jv["position"].get<std::vector<float>>(),
@@ -155,7 +183,8 @@ TEST(BakeOutput, OiiotoolListsTheAttributes) {
   vs::writeShadowExr(exr, threeViews());
   std::string out;
   ASSERT_EQ(vs::test::runCommand("oiiotool --info -v -a '" + exr.string() + "'", out), 0) << out;
-  for (const char* needle : {"voxshadow:light", "voxshadow:view", "voxshadow:worldToClip", "voxshadow:encoding",
+  for (const char* needle : {"voxshadow:light", "voxshadow:view", "voxshadow:worldToClip", "voxshadow:eye",
+                             "voxshadow:eyeToClip", "voxshadow:encoding",
                              "voxshadow:depthPoint", "voxshadow:range", "voxshadow:position", "sun.cascade0",
                              "lamp", "torch.face+x", "linear_distance", "voxel_center"}) {
     EXPECT_NE(out.find(needle), std::string::npos) << needle << " missing from:\n" << out;

@@ -173,15 +173,15 @@ TEST(CliHardening, AVoxelSizeOutsideTheValidRangeIsRefusedAtLoad) {
 TEST(CliHardening, ALightTooFarFromFineVoxelsIsRefused) {
   fs::path dir = vs::test::scratchDir("hardening_far_light");
   fs::path scene = dir / "scene.json";
-  // Voxels of 0.1 * 1e-3 = 1e-4 units; a spot 5e3 units away is 5e7 of them, beyond 2^22.
-  writeFile(scene, sceneWith(R"([ { "type": "spot", "position": [0, 5000, 0], "direction": [0, -1, 0], "range": 6000,
+  // Voxels of 0.1 * 1e-3 = 1e-4 units; a spot 1e4 units away is 1e8 of them, beyond 2^26.
+  writeFile(scene, sceneWith(R"([ { "type": "spot", "position": [0, 10000, 0], "direction": [0, -1, 0], "range": 12000,
                                    "outer_cone_deg": 1, "shadow": { "resolution": 16 } } ])",
                              fogSphere(), R"(, "scale": 1e-3)"));
   std::string out;
   EXPECT_EQ(cli("bake " + quote(scene) + " -o " + quote(dir / "o.exr") + " --backend cpu", out), 2) << out;
   EXPECT_TRUE(contains(out, "lights[0].position")) << out;
-  EXPECT_TRUE(contains(out, "4.1943e+06 voxels")) << out;
-  // The same light 100 units away is within the range and bakes.
+  EXPECT_TRUE(contains(out, "6.71089e+07 voxels")) << out;
+  // The same light 100 units away (1e6 voxels) is within the range and bakes.
   writeFile(scene, sceneWith(R"([ { "type": "spot", "position": [0, 100, 0], "direction": [0, -1, 0], "range": 200,
                                    "outer_cone_deg": 1, "shadow": { "resolution": 16 } } ])",
                              fogSphere(), R"(, "scale": 1e-3)"));

@@ -18,10 +18,10 @@ struct Ray {
 };
 
 Ray texelRay(const LightView& v, glm::dvec2 texel) {
-  glm::dmat4 inv(v.trace.invViewProj);
+  glm::dmat4 inv = glm::inverse(v.eyeToClip);
   double nx = texel.x / v.resolution * 2.0 - 1.0, ny = texel.y / v.resolution * 2.0 - 1.0;
   glm::dvec4 n = inv * glm::dvec4(nx, ny, 0.0, 1.0), f = inv * glm::dvec4(nx, ny, 1.0, 1.0);
-  return {glm::dvec3(n) / n.w, glm::dvec3(f) / f.w};
+  return {v.eye + glm::dvec3(n) / n.w, v.eye + glm::dvec3(f) / f.w};
 }
 
 // Texel position (column, row) and NDC of a world point (DESIGN.md §9).
@@ -88,12 +88,17 @@ TEST(LightViews, NamesOrderAndRecords) {
     EXPECT_EQ(v.trace.rect, glm::ivec4(0, 0, v.resolution, v.resolution));
     EXPECT_EQ(v.trace.info, glm::ivec4(v.resolution, v.resolution, v.encoding, v.depthPoint));
     EXPECT_EQ(v.trace.viewProj, v.viewProj);
-    glm::mat4 id = v.trace.viewProj * v.trace.invViewProj;
+    // clipToEye inverts eyeToClip, which is worldToClip about the eye.
+    glm::dmat4 id = v.eyeToClip * glm::dmat4(v.trace.clipToEye);
     for (int c = 0; c < 4; ++c)
-      for (int r = 0; r < 4; ++r) EXPECT_NEAR(id[c][r], c == r ? 1.0f : 0.0f, 1e-4f) << v.name;
+      for (int r = 0; r < 4; ++r) EXPECT_NEAR(id[c][r], c == r ? 1.0 : 0.0, 1e-5) << v.name;
+    glm::dvec3 probe(1.25, -3.5, 7.0);
+    glm::dvec4 a = glm::dmat4(v.viewProj) * glm::dvec4(v.eye + probe, 1.0), b = v.eyeToClip * glm::dvec4(probe, 1.0);
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(a[k], b[k], 1e-4 * (1.0 + std::abs(b[k]))) << v.name;
+    EXPECT_LE(glm::length(gpu::viewEye(v.trace) - v.eye), 1e-12 * (1.0 + glm::length(v.eye))) << v.name;
     if (v.encoding == gpu::VS_ENCODING_LINEAR_DISTANCE) {
-      EXPECT_EQ(glm::vec3(v.trace.origin), v.position);
-      EXPECT_EQ(v.trace.origin.w, v.range);
+      EXPECT_EQ(glm::vec3(v.trace.eyeHigh), v.position);
+      EXPECT_EQ(v.trace.eyeHigh.w, v.range);
     }
   }
   EXPECT_EQ(views[1].range, 80.0f);
@@ -181,7 +186,7 @@ TEST(LightViews, EmptyBoundsStillGiveFiniteMatrices) {
   for (int c = 0; c < 4; ++c)
     for (int r = 0; r < 4; ++r) {
       EXPECT_TRUE(std::isfinite(views[0].trace.viewProj[c][r]));
-      EXPECT_TRUE(std::isfinite(views[0].trace.invViewProj[c][r]));
+      EXPECT_TRUE(std::isfinite(views[0].trace.clipToEye[c][r]));
     }
 }
 

@@ -70,7 +70,7 @@ TEST(TraceCpuFast, City512MatchesReferenceBitForBit) {
   std::size_t hits = 0;
   for (std::size_t i = 0; i < views.size(); ++i) {
     EXPECT_EQ(differingTexels(reference[i], fast[i]), 0u) << "view " << i;
-    float miss = views[i].info.z == gpu::VS_ENCODING_NDC_DEPTH ? 1.0f : views[i].origin.w;
+    float miss = views[i].info.z == gpu::VS_ENCODING_NDC_DEPTH ? 1.0f : views[i].eyeHigh.w;
     for (float t : reference[i].texels) hits += t < miss;
   }
   // The views see the city: a large share of the texels hit.
@@ -167,10 +167,10 @@ namespace {
 // plane (the highest axis on ties), step one voxel, test it. The hierarchical walk skips empty cells of up to
 // 128 voxels and the fast path skips larger empty boxes still; both must stop where this walk stops, at the
 // same t bit for bit.
-bool voxelWalk(const Brickmap& bm, gpu::SceneArrays& arrays, glm::vec3 o, glm::vec3 d, float tMax, float& tHit,
-               glm::ivec3& voxel) {
+bool voxelWalk(const Brickmap& bm, gpu::SceneArrays& arrays, glm::vec3 o, glm::vec3 d, float tMin, float tMax,
+               float& tHit, glm::ivec3& voxel) {
   gpu::SceneArrays::ObjectWalk w;
-  if (!arrays.vsObjectWalkBegin(0, o, d, 0.0f, tMax, w)) return false;
+  if (!arrays.vsObjectWalkBegin(0, o, d, tMin, tMax, w)) return false;
   for (;;) {
     if (bm.isSolid(w.v)) {
       tHit = w.tEnter;
@@ -206,15 +206,17 @@ TEST(TraceCpuCanonicalOrder, HierarchicalWalkEqualsVoxelWalk) {
     for (const gpu::TraceView& view : views)
       for (int y = 0; y < view.info.y; ++y)
         for (int x = 0; x < view.info.x; ++x) {
-          glm::vec3 o(0), d(0);
-          float tMax = 0;
-          arrays.vsViewRay(view, {x, y}, o, d, tMax);
-          glm::vec3 lo = arrays.vsApplyAffine(arrays.instances[0].worldToBrick, o);
-          glm::vec3 ld = arrays.vsApplyLinear(arrays.instances[0].worldToBrick, d);
+          gpu::SceneArrays::WorldRay ray;
+          arrays.vsViewRay(view, {x, y}, ray);
+          float tBase = arrays.vsInstanceBaseT(ray, 0u);
+          glm::vec3 lo, ld;
+          arrays.vsInstanceRay(ray, 0u, tBase, lo, ld);
+          const float tMax = arrays.vsLocalT(ray.tMax, tBase);
           float t = 0, tv = 0;
           glm::ivec3 v(0), vv(0);
-          bool hit = arrays.vsTraceObject(0, lo, ld, 0.0f, tMax, t, v);
-          bool hitv = voxelWalk(bm, arrays, lo, ld, tMax, tv, vv);
+          const float tMin = arrays.vsLocalT(0.0f, tBase);
+          bool hit = arrays.vsTraceObject(0, lo, ld, tMin, tMax, t, v);
+          bool hitv = voxelWalk(bm, arrays, lo, ld, tMin, tMax, tv, vv);
           ASSERT_EQ(hit, hitv) << scene.name << " texel " << x << "," << y;
           if (!hit) continue;
           ++hits;

@@ -59,9 +59,10 @@ std::vector<Expected> cppLayouts() {
         Member{"brickToWorld.row1", offsetof(InstanceRecord, brickToWorld) + offsetof(Affine, row1), 4},
         Member{"brickToWorld.row2", offsetof(InstanceRecord, brickToWorld) + offsetof(Affine, row2), 4},
         VS_MEMBER(InstanceRecord, boundsMin, 4), VS_MEMBER(InstanceRecord, boundsMax, 4),
-        VS_MEMBER(InstanceRecord, info, 4)}},
+        VS_MEMBER(InstanceRecord, info, 4), VS_MEMBER(InstanceRecord, anchor, 4)}},
       {"TraceView", sizeof(TraceView),
-       {VS_MEMBER(TraceView, viewProj, 16), VS_MEMBER(TraceView, invViewProj, 16), VS_MEMBER(TraceView, origin, 4),
+       {VS_MEMBER(TraceView, viewProj, 16), VS_MEMBER(TraceView, clipToEye, 16), VS_MEMBER(TraceView, eyeHigh, 4),
+        VS_MEMBER(TraceView, eyeLow, 4),
         VS_MEMBER(TraceView, rect, 4), VS_MEMBER(TraceView, info, 4)}},
   };
 }

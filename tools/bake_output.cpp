@@ -58,6 +58,8 @@ nlohmann::json sidecarJson(std::span<const BakedView> views) {
                         {"depthPoint", v.depthPoint},
                         {"range", v.range},
                         {"worldToClip", std::vector<float>(m, m + 16)},
+                        {"eye", {v.eye.x, v.eye.y, v.eye.z}},
+                        {"eyeToClip", std::vector<double>(glm::value_ptr(v.eyeToClip), glm::value_ptr(v.eyeToClip) + 16)},
                         {"width", v.width},
                         {"height", v.height}};
     if (v.position) j["position"] = {v.position->x, v.position->y, v.position->z};
@@ -82,6 +84,10 @@ OIIO::ImageSpec exrSpec(const BakedView& v, int displayWidth, int displayHeight)
   spec.attribute("voxshadow:light", v.light);
   spec.attribute("voxshadow:view", v.name);
   spec.attribute("voxshadow:worldToClip", OIIO::TypeMatrix44, glm::value_ptr(v.worldToClip));
+  spec.attribute("voxshadow:eye", OIIO::TypeDesc(OIIO::TypeDesc::DOUBLE, OIIO::TypeDesc::VEC3, OIIO::TypeDesc::VECTOR),
+                 glm::value_ptr(v.eye));
+  spec.attribute("voxshadow:eyeToClip", OIIO::TypeDesc(OIIO::TypeDesc::DOUBLE, OIIO::TypeDesc::MATRIX44),
+                 glm::value_ptr(v.eyeToClip));
   spec.attribute("voxshadow:encoding", v.encoding);
   spec.attribute("voxshadow:depthPoint", v.depthPoint);
   spec.attribute("voxshadow:range", v.range);

@@ -23,6 +23,11 @@ struct BakedView {
   float range = 0.0f;      // miss value of linear_distance views (also written for ndc_depth views)
   std::optional<glm::vec3> position;  // spot and point views: the light position, where rays start
   glm::mat4 worldToClip{1.0f};
+  // The eye of the layer's rays and the view-projection about it, in double (DESIGN.md §6, §9): texel (x, y)'s
+  // ray runs from eye + p(0) toward eye + p(1) (NDC depth) or from eye toward eye + p(1) (linear distance),
+  // where p(z) unprojects NDC ((x + 0.5) / width * 2 - 1, (y + 0.5) / height * 2 - 1, z) through eyeToClip.
+  glm::dvec3 eye{0.0};
+  glm::dmat4 eyeToClip{1.0};
   int width = 0;
   int height = 0;
   std::vector<float> texels;  // width * height, row 0 first
@@ -38,7 +43,8 @@ void validateBakedViews(std::span<const BakedView> views);
 std::filesystem::path sidecarPath(const std::filesystem::path& exr);
 
 // The sidecar's content: {"version": 1, "views": [{name, light, encoding, depthPoint, range, position?,
-// worldToClip (16 floats, GLM column-major order), width, height, subimage}]}.
+// worldToClip (16 floats, GLM column-major order), eye (3 doubles), eyeToClip (16 doubles, column-major), width,
+// height, subimage}]}.
 nlohmann::json sidecarJson(std::span<const BakedView> views);
 
 // Writes `out` (one EXR subimage per view, channel "Z" as 32-bit float, the voxshadow:* attributes of

@@ -194,6 +194,8 @@ BakedView toBaked(const LightView& v, ShadowLayer&& layer) {
   b.range = v.range;
   if (v.encoding == gpu::VS_ENCODING_LINEAR_DISTANCE) b.position = v.position;
   b.worldToClip = v.viewProj;
+  b.eye = v.eye;
+  b.eyeToClip = v.eyeToClip;
   b.width = layer.width;
   b.height = layer.height;
   b.texels = std::move(layer.texels);

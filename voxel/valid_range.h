@@ -24,9 +24,11 @@ inline constexpr double kMinScale = 1e-4, kMaxScale = 1e4;
 // across the whole coordinate cube.
 inline constexpr double kMaxDistance = 1e6;
 
-// A ray's origin, expressed in an object's voxels, lies within this many voxels of the object's box: float
-// voxel coordinates then keep 2 fractional bits, and the walk's integer cells stay exact.
-inline constexpr double kMaxRayVoxels = 4194304.0;  // 2^22
+// A ray's origin, expressed in an object's voxels, lies within this many voxels of the object's box. Rays are
+// re-based near each object they enter (compute/shared/traverse.h, vsInstanceBaseT), at most 2^-15 of the
+// distance before it: within 2^26 voxels that is 2^11 voxels, where float voxel coordinates still resolve
+// 2^-13 of a voxel, well inside the 1e-3 voxel the depths are held to.
+inline constexpr double kMaxRayVoxels = 67108864.0;  // 2^26
 
 // Colours and intensities: non-negative and at most this, so that sums over many lights stay finite.
 inline constexpr double kMaxRadiometric = 1e6;

@@ -105,7 +105,8 @@ void CpuTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowL
 bool traceRayCpu(const SceneData& scene, glm::vec3 origin, glm::vec3 direction, float tMin, float tMax, float& tHit,
                  std::uint32_t& instance, glm::ivec3& voxel) {
   gpu::SceneArrays arrays(scene);
-  return arrays.vsTraceClosest(origin, direction, tMin, tMax, tHit, instance, voxel);
+  return arrays.vsRayIsFinite(arrays.vsWorldRay(origin, direction, tMin, tMax)) &&
+         arrays.vsTraceClosest(arrays.vsWorldRay(origin, direction, tMin, tMax), tHit, instance, voxel);
 }
 
 float shadowTexelCpu(const SceneData& scene, const gpu::TraceView& view, glm::ivec2 texel) {

@@ -506,11 +506,6 @@ void lookupLanes(const gpu::SceneArrays& arrays, const LaneTables& tables, Lanes
   store(L.stepHit, hit);
 }
 
-// glm's scalar min(x, y) is (y < x) ? y : x and max(x, y) is (x < y) ? y : x: minps(y, x) and maxps(y, x).
-inline __m256 glmMin(__m256 x, __m256 y) { return _mm256_min_ps(y, x); }
-inline __m256 glmMax(__m256 x, __m256 y) { return _mm256_max_ps(y, x); }
-inline __m256 bcast(float f) { return _mm256_set1_ps(f); }
-
 // vsSettleCoord per lane: c lies between `near` (where the ray comes from) and `far`; moves it one voxel back
 // when the plane it was entered through is not crossed at t, or one forward when the plane ahead is. A plane at
 // exactly t counts as crossed where tieCrossed is set.
@@ -634,176 +629,54 @@ SingleInstance singleInstance(const gpu::SceneArrays& arrays) {
   return one;
 }
 
-// vsBoxEntry for eight rays: the same operations per lane, tMin = 0.
-__m256 boxEntryLanes(glm::vec3 bmin, glm::vec3 bmax, const __m256 o[3], const __m256 d[3], __m256 tMax) {
-  __m256 t0 = _mm256_setzero_ps();
-  __m256 t1 = tMax;
-  __m256 outside = _mm256_setzero_ps();
-  for (int a = 0; a < 3; ++a) {
-    __m256 zeroD = _mm256_cmp_ps(d[a], _mm256_setzero_ps(), _CMP_EQ_OQ);
-    __m256 lo = bcast(bmin[a]), hi = bcast(bmax[a]);
-    outside = _mm256_or_ps(outside, _mm256_and_ps(zeroD, _mm256_or_ps(_mm256_cmp_ps(o[a], lo, _CMP_LT_OQ),
-                                                                      _mm256_cmp_ps(o[a], hi, _CMP_GT_OQ))));
-    __m256 inv = _mm256_div_ps(bcast(1.0f), d[a]);
-    __m256 tLo = _mm256_mul_ps(_mm256_sub_ps(lo, o[a]), inv);
-    __m256 tHi = _mm256_mul_ps(_mm256_sub_ps(hi, o[a]), inv);
-    t0 = _mm256_blendv_ps(glmMax(t0, glmMin(tLo, tHi)), t0, zeroD);
-    t1 = _mm256_blendv_ps(glmMin(t1, glmMax(tLo, tHi)), t1, zeroD);
-  }
-  __m256 ok = _mm256_andnot_ps(outside, _mm256_cmp_ps(t0, t1, _CMP_LE_OQ));
-  return _mm256_blendv_ps(bcast(gpu::VS_T_INFINITY), t0, ok);
-}
-
-// Eight texel rays of one view through a single-instance scene, set up as vsViewRay, collectCandidates,
-// beginNextWalk and vsObjectWalkBegin do for each, lane by lane with the same operations, into rays[i];
-// walks[i] says which rays begin a walk (the others miss).
 // A ray of a single-instance scene, set up and waiting for a lane: what loadSingleLane and the texel value need.
 struct SingleRay {
-  float o[3], d[3], tMax;          // the world ray (vsViewRay)
-  float lo[3], ld[3], invD[3];     // the brick-space ray and vsObjectWalkBegin's inverse direction
-  int v[3];                        // the walk's first voxel
-  float t0, t1;                    // its entry t and the end of its span
+  tile::WorldRay ray;           // the world ray (vsViewRay)
+  float tBase;                  // vsInstanceBaseT: the walk's t is relative to it
+  float lo[3], ld[3], invD[3];  // the brick-space ray and vsObjectWalkBegin's inverse direction
+  int v[3];                     // the walk's first voxel
+  float t0, t1;                 // its entry t and the end of its span
   const gpu::TraceView* view;
   float* texel;
 };
 
-void setupBatch(const gpu::SceneArrays& arrays, const SingleInstance& one, const gpu::TraceView& view, const int* xs,
+// Eight texel rays of one view through a single-instance scene, set up by the portable code as
+// collectCandidates and beginNextWalk would (the one leaf's box, the instance's box, the re-based instance ray,
+// vsObjectWalkBegin), into rays[i]; walks[i] says which rays begin a walk (the others miss).
+void setupBatch(gpu::SceneArrays& arrays, const SingleInstance& one, const gpu::TraceView& view, const int* xs,
                 const int* ys, SingleRay* rays, bool* walks) {
-  alignas(32) float fx[kLanes], fy[kLanes];
-  for (int i = 0; i < kLanes; ++i) fx[i] = float(xs[i]), fy[i] = float(ys[i]);
-  __m256 nx = _mm256_sub_ps(
-      _mm256_mul_ps(_mm256_div_ps(_mm256_add_ps(_mm256_load_ps(fx), bcast(0.5f)), bcast(float(view.info.x))),
-                    bcast(2.0f)),
-      bcast(1.0f));
-  __m256 ny = _mm256_sub_ps(
-      _mm256_mul_ps(_mm256_div_ps(_mm256_add_ps(_mm256_load_ps(fy), bcast(0.5f)), bcast(float(view.info.y))),
-                    bcast(2.0f)),
-      bcast(1.0f));
-  const glm::mat4& m = view.invViewProj;
-  // vsMulPoint: m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3] * p.w, component by component.
-  auto mulPoint = [&](float pz, __m256 h[4]) {
-    for (int c = 0; c < 4; ++c)
-      h[c] = _mm256_add_ps(
-          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bcast(m[0][c]), nx), _mm256_mul_ps(bcast(m[1][c]), ny)),
-                        _mm256_mul_ps(bcast(m[2][c]), bcast(pz))),
-          _mm256_mul_ps(bcast(m[3][c]), bcast(1.0f)));
-  };
-  __m256 farH[4], farP[3], o[3], d[3], tMax;
-  mulPoint(1.0f, farH);
-  for (int a = 0; a < 3; ++a) farP[a] = _mm256_div_ps(farH[a], farH[3]);
-  if (view.info.z == gpu::VS_ENCODING_NDC_DEPTH) {
-    __m256 nearH[4];
-    mulPoint(0.0f, nearH);
-    for (int a = 0; a < 3; ++a) {
-      o[a] = _mm256_div_ps(nearH[a], nearH[3]);
-      d[a] = _mm256_sub_ps(farP[a], o[a]);
-    }
-    tMax = bcast(1.0f);
-  } else {
-    __m256 toFar[3];
-    for (int a = 0; a < 3; ++a) {
-      o[a] = bcast(view.origin[a]);
-      toFar[a] = _mm256_sub_ps(farP[a], o[a]);
-    }
-    __m256 len = _mm256_sqrt_ps(
-        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(toFar[0], toFar[0]), _mm256_mul_ps(toFar[1], toFar[1])),
-                      _mm256_mul_ps(toFar[2], toFar[2])));
-    for (int a = 0; a < 3; ++a) d[a] = _mm256_div_ps(toFar[a], len);
-    tMax = bcast(view.origin.w);
-  }
-
-  // collectCandidates: the root leaf's box, then the instance's box.
   const gpu::BvhNode& node = arrays.nodes[0];
   const gpu::InstanceRecord& inst = arrays.instances[one.instance];
-  __m256 infinity = bcast(gpu::VS_T_INFINITY);
-  __m256 nodeEntry = boxEntryLanes(node.boundsMin, node.boundsMax, o, d, tMax);
-  __m256 entry = boxEntryLanes(glm::vec3(inst.boundsMin), glm::vec3(inst.boundsMax), o, d, tMax);
-  // vsRayIsFinite: a lane whose ray has a NaN or infinite component is a miss.
-  __m256 finite = _mm256_cmp_ps(tMax, tMax, _CMP_ORD_Q);
-  __m256 absMask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
-  for (int a = 0; a < 3; ++a) {
-    finite = _mm256_and_ps(finite, _mm256_cmp_ps(_mm256_and_ps(o[a], absMask), infinity, _CMP_LE_OQ));
-    finite = _mm256_and_ps(finite, _mm256_cmp_ps(_mm256_and_ps(d[a], absMask), infinity, _CMP_LE_OQ));
-  }
-  finite = _mm256_and_ps(finite, _mm256_cmp_ps(_mm256_and_ps(tMax, absMask), infinity, _CMP_LE_OQ));
-  __m256 candidate = _mm256_and_ps(
-      finite, _mm256_and_ps(_mm256_cmp_ps(nodeEntry, infinity, _CMP_NEQ_UQ), _mm256_cmp_ps(entry, infinity, _CMP_NEQ_UQ)));
-  // beginNextWalk: no walk when the box starts after tBest (= tMax).
-  __m256 walk = _mm256_and_ps(candidate, _mm256_cmp_ps(entry, tMax, _CMP_LE_OQ));
-
-  // vsApplyAffine / vsApplyLinear with worldToBrick.
-  const gpu::Affine& w = inst.worldToBrick;
-  const glm::vec4* rows[3] = {&w.row0, &w.row1, &w.row2};
-  __m256 lo[3], ld[3];
-  for (int a = 0; a < 3; ++a) {
-    const glm::vec4& r = *rows[a];
-    __m256 dot = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bcast(r.x), o[0]), _mm256_mul_ps(bcast(r.y), o[1])),
-                               _mm256_mul_ps(bcast(r.z), o[2]));
-    lo[a] = _mm256_add_ps(dot, bcast(r.w));
-    ld[a] = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bcast(r.x), d[0]), _mm256_mul_ps(bcast(r.y), d[1])),
-                          _mm256_mul_ps(bcast(r.z), d[2]));
-  }
-
-  // vsObjectWalkBegin(objectIndex, lo, ld, 0, tMax).
-  const gpu::ObjectRecord& obj = arrays.objects[one.objectIndex];
-  glm::ivec3 vmin(obj.voxelMin), vmax(obj.voxelMax);
-  bool emptyObject = vmax.x <= vmin.x || vmax.y <= vmin.y || vmax.z <= vmin.z;
-  __m256 t0 = _mm256_setzero_ps(), t1 = tMax, invD[3];
-  for (int a = 0; a < 3; ++a) {
-    __m256 zeroD = _mm256_cmp_ps(ld[a], _mm256_setzero_ps(), _CMP_EQ_OQ);
-    __m256 fmin = bcast(float(vmin[a])), fmax = bcast(float(vmax[a]));
-    __m256 outside = _mm256_or_ps(_mm256_cmp_ps(lo[a], fmin, _CMP_LT_OQ), _mm256_cmp_ps(lo[a], fmax, _CMP_GE_OQ));
-    walk = _mm256_andnot_ps(_mm256_and_ps(zeroD, outside), walk);
-    __m256 inv = _mm256_div_ps(bcast(1.0f), ld[a]);
-    invD[a] = _mm256_andnot_ps(zeroD, inv);  // 0 where d is 0
-    __m256 tLo = _mm256_mul_ps(_mm256_sub_ps(fmin, lo[a]), inv);
-    __m256 tHi = _mm256_mul_ps(_mm256_sub_ps(fmax, lo[a]), inv);
-    t0 = _mm256_blendv_ps(glmMax(t0, glmMin(tLo, tHi)), t0, zeroD);
-    t1 = _mm256_blendv_ps(glmMin(t1, glmMax(tLo, tHi)), t1, zeroD);
-  }
-  walk = _mm256_andnot_ps(_mm256_cmp_ps(t0, t1, _CMP_GT_OQ), walk);
-  __m256i v[3];
-  for (int a = 0; a < 3; ++a) {
-    __m256 e = _mm256_add_ps(lo[a], _mm256_mul_ps(ld[a], t0));
-    __m256 f = _mm256_round_ps(e, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-    v[a] = _mm256_cvttps_epi32(glmMin(glmMax(f, bcast(float(vmin[a]))), bcast(float(vmax[a] - 1))));
-    // vsSettleCoord at t0, every plane at t0 crossed; not where d is 0.
-    __m256i dPositive = _mm256_castps_si256(_mm256_cmp_ps(ld[a], _mm256_setzero_ps(), _CMP_GT_OQ));
-    __m256i lowest = _mm256_set1_epi32(vmin[a]), highest = _mm256_set1_epi32(vmax[a] - 1);
-    __m256i settled = settleLanes(v[a], select(highest, lowest, dPositive), select(lowest, highest, dPositive),
-                                  dPositive, lo[a], invD[a], t0, _mm256_set1_epi32(-1));
-    v[a] = select(settled, v[a], _mm256_castps_si256(_mm256_cmp_ps(ld[a], _mm256_setzero_ps(), _CMP_EQ_OQ)));
-  }
-
-  alignas(32) float so[3][kLanes], sd[3][kLanes], slo[3][kLanes], sld[3][kLanes], sinv[3][kLanes], st0[kLanes],
-      st1[kLanes], stMax[kLanes];
-  alignas(32) int sv[3][kLanes];
-  for (int a = 0; a < 3; ++a) {
-    _mm256_store_ps(so[a], o[a]);
-    _mm256_store_ps(sd[a], d[a]);
-    _mm256_store_ps(slo[a], lo[a]);
-    _mm256_store_ps(sld[a], ld[a]);
-    _mm256_store_ps(sinv[a], invD[a]);
-    _mm256_store_si256(reinterpret_cast<__m256i*>(sv[a]), v[a]);
-  }
-  _mm256_store_ps(st0, t0);
-  _mm256_store_ps(st1, t1);
-  _mm256_store_ps(stMax, tMax);
-  int walkMask = emptyObject ? 0 : _mm256_movemask_ps(walk);
   for (int i = 0; i < kLanes; ++i) {
     SingleRay& r = rays[i];
-    for (int a = 0; a < 3; ++a) {
-      r.o[a] = so[a][i];
-      r.d[a] = sd[a][i];
-      r.lo[a] = slo[a][i];
-      r.ld[a] = sld[a][i];
-      r.invD[a] = sinv[a][i];
-      r.v[a] = sv[a][i];
+    walks[i] = false;
+    arrays.vsViewRay(view, glm::ivec2(xs[i], ys[i]), r.ray);
+    r.tBase = 0.0f;
+    if (!arrays.vsRayIsFinite(r.ray)) continue;
+    const tile::WorldRay& ray = r.ray;
+    glm::vec3 o = arrays.vsCullOrigin(ray);
+    glm::vec3 pad(arrays.vsCullPad(ray));
+    if (arrays.vsBoxEntry(node.boundsMin - pad, node.boundsMax + pad, o, ray.d, ray.tMin, ray.tMax) ==
+            gpu::VS_T_INFINITY ||
+        arrays.vsBoxEntry(glm::vec3(inst.boundsMin) - pad, glm::vec3(inst.boundsMax) + pad, o, ray.d, ray.tMin,
+                          ray.tMax) == gpu::VS_T_INFINITY)
+      continue;
+    r.tBase = arrays.vsInstanceBaseT(ray, one.instance);
+    glm::vec3 lo, ld;
+    arrays.vsInstanceRay(ray, one.instance, r.tBase, lo, ld);
+    gpu::SceneArrays::ObjectWalk w;
+    if (!arrays.vsObjectWalkBegin(one.objectIndex, lo, ld, arrays.vsLocalT(ray.tMin, r.tBase),
+                                  arrays.vsLocalT(ray.tMax, r.tBase), w))
+      continue;
+    for (int k = 0; k < 3; ++k) {
+      r.lo[k] = w.o[k];
+      r.ld[k] = w.d[k];
+      r.invD[k] = w.invD[k];
+      r.v[k] = w.v[k];
     }
-    r.tMax = stMax[i];
-    r.t0 = st0[i];
-    r.t1 = st1[i];
-    walks[i] = ((walkMask >> i) & 1) != 0;
+    r.t0 = w.tEnter;
+    r.t1 = w.t1;
+    walks[i] = true;
   }
 }
 
@@ -911,9 +784,10 @@ void traceTilesSingle(gpu::SceneArrays& arrays, const LaneTables& tables, const 
         groups[k].live[i] = 0;
       }
   }
-  auto writeTexel = [&](const SingleRay& r, bool hit, float tHit, glm::ivec3 voxel) {
-    *r.texel = arrays.vsTexelValue(*r.view, glm::vec3(r.o[0], r.o[1], r.o[2]), glm::vec3(r.d[0], r.d[1], r.d[2]),
-                                   r.tMax, hit, tHit, one.instance, voxel);
+  // tLocal: the hit's t relative to the ray's base.
+  auto writeTexel = [&](const SingleRay& r, bool hit, float tLocal, glm::ivec3 voxel) {
+    float t = hit ? arrays.vsWorldT(tLocal, r.tBase) : r.ray.tMax;
+    *r.texel = arrays.vsTexelValue(*r.view, r.ray, hit, t, one.instance, voxel);
   };
   // Sets up rays until `ready` holds a batch's worth (rays without a walk are written as misses on the way).
   auto prepare = [&] {
@@ -933,7 +807,7 @@ void traceTilesSingle(gpu::SceneArrays& arrays, const LaneTables& tables, const 
         r.view = &views[std::size_t(view)];
         r.texel = &layer.texels[std::size_t(ys[i]) * layer.width + xs[i]];
         if (!walks[i]) {
-          writeTexel(r, false, r.tMax, glm::ivec3(0));
+          writeTexel(r, false, 0.0f, glm::ivec3(0));
           continue;
         }
         if (kept != i) batch[kept] = r;
@@ -952,7 +826,7 @@ void traceTilesSingle(gpu::SceneArrays& arrays, const LaneTables& tables, const 
 
   stepLaneGroups(arrays, tables, groups.get(), kGroups, refill, [&](int k, int i, bool hit) {
     const Lanes& L = groups[k];
-    writeTexel(laneRay[k][i], hit, hit ? L.tEnter[i] : laneRay[k][i].tMax, glm::ivec3(L.v[0][i], L.v[1][i], L.v[2][i]));
+    writeTexel(laneRay[k][i], hit, L.tEnter[i], glm::ivec3(L.v[0][i], L.v[1][i], L.v[2][i]));
     refill(k, i);
   });
 }
@@ -990,8 +864,7 @@ void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::sp
 
   auto finish = [&](int slot) {
     const Ray& ray = pool[slot];
-    const tile::RayState& r = ray.state;
-    *ray.texel = arrays.vsTexelValue(*ray.view, r.o, r.d, r.tMax, r.hit, r.tBest, r.instanceHit, r.voxel);
+    *ray.texel = tile::texelValue(arrays, *ray.view, ray.state);
     freeSlots[freeCount++] = slot;
   };
   // Sets up the next batch of rays that need a walk (texels that need none are finished on the way).
@@ -1005,12 +878,9 @@ void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::sp
       ShadowLayer& layer = layers[std::size_t(view)];
       ray.view = &views[std::size_t(view)];
       ray.texel = &layer.texels[std::size_t(y) * layer.width + x];
-      arrays.vsViewRay(*ray.view, glm::ivec2(x, y), r.o, r.d, r.tMax);
-      r.tBest = r.tMax;
-      r.hit = false;
-      r.instanceHit = 0u;
-      r.voxel = glm::ivec3(0);
-      r.nextCandidate = 0;
+      tile::WorldRay worldRay;
+      arrays.vsViewRay(*ray.view, glm::ivec2(x, y), worldRay);
+      tile::beginRay(arrays, r, worldRay);
       if (!tile::collectCandidates(arrays, r)) {
         *ray.texel = arrays.vsShadowTexel(*ray.view, glm::ivec2(x, y));
         freeSlots[freeCount++] = slot;
@@ -1038,7 +908,7 @@ void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::sp
     Lanes& L = groups[k];
     int slot = laneRay[k][i];
     tile::RayState& r = pool[slot].state;
-    if (hit) tile::recordHit(r, L.tEnter[i], glm::ivec3(L.v[0][i], L.v[1][i], L.v[2][i]));
+    if (hit) tile::recordHit(arrays, r, L.tEnter[i], glm::ivec3(L.v[0][i], L.v[1][i], L.v[2][i]));
     if (tile::beginNextWalk(arrays, r)) {
       loadLane(L, i, r.walk, tables, arrays.instances[r.walkingInstance].info.x);
       return;

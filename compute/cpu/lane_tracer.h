@@ -9,8 +9,8 @@
 //
 // Four groups of eight lanes are stepped in three parts each, so that the groups' gathers overlap. A lane
 // whose ray finishes takes the next ray at once. Rays are set up by the portable scalar code (vsViewRay,
-// candidates from the BVH, vsObjectWalkBegin), or, in a scene whose BVH is one leaf holding one instance,
-// eight at a time by a lane version of that same code (same operations, same order).
+// candidates from the BVH, the re-based instance ray, vsObjectWalkBegin); a scene whose BVH is one leaf holding
+// one instance skips the candidate lists.
 #ifndef VOXSHADOW_LANE_TRACER_H
 #define VOXSHADOW_LANE_TRACER_H
 

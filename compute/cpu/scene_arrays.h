@@ -24,6 +24,9 @@ struct SceneArrays {
   const uint* nodeEscapes = nullptr;
   uint nodeCount = 0;
 
+  // No arrays: for callers of the pieces that read only what they are given (vsWorldRay) or the members they
+  // set themselves.
+  SceneArrays() = default;
   explicit SceneArrays(const vs::SceneData& scene)
       : regionTable(scene.regionTable.data()),
         regions(scene.regions.data()),

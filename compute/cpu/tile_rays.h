@@ -17,83 +17,98 @@ namespace vs::tile {
 constexpr int kMaxCandidates = 8;
 
 struct Candidate {
-  float entry;  // t where the ray enters the instance's world box
+  float entry;  // t where the ray enters the instance's world box (grown by vsCullPad)
   std::uint32_t instance;
 };
 
+using WorldRay = gpu::SceneArrays::WorldRay;
+
 struct RayState {
-  glm::vec3 o, d;
-  float tMax;
+  WorldRay ray;
+  glm::vec3 cullOrigin;  // vsCullOrigin(ray)
+  float cullPad;         // vsCullPad(ray)
   float tBest;
   bool hit;
   std::uint32_t instanceHit;
   glm::ivec3 voxel;
   std::uint32_t walkingInstance;
+  float walkBase;  // the walking instance's vsInstanceBaseT: its walk's t is relative to it
   int candidateCount;
   int nextCandidate;
   std::array<Candidate, kMaxCandidates> candidates;
   gpu::SceneArrays::ObjectWalk walk;
 };
 
-// Instances whose world boxes the ray enters within [0, tMax], in order of entry; false when there are
-// more than kMaxCandidates.
-inline bool collectCandidates(gpu::SceneArrays& arrays, RayState& ray) {
-  ray.candidateCount = 0;
+// Starts a ray's state: no hit yet, no candidates.
+inline void beginRay(gpu::SceneArrays& arrays, RayState& r, const WorldRay& ray) {
+  r.ray = ray;
+  r.cullOrigin = arrays.vsCullOrigin(ray);
+  r.cullPad = arrays.vsCullPad(ray);
+  r.tBest = ray.tMax;
+  r.hit = false;
+  r.instanceHit = 0u;
+  r.voxel = glm::ivec3(0);
+  r.candidateCount = 0;
+  r.nextCandidate = 0;
+}
+
+// Instances whose world boxes the ray enters within [tMin, tMax], in order of entry, found by the portable
+// stackless BVH walk; false when there are more than kMaxCandidates.
+inline bool collectCandidates(gpu::SceneArrays& arrays, RayState& r) {
+  r.candidateCount = 0;
   // A non-finite ray is a miss (vsShadowTexel gives its texel); it must never reach the walk's integer cells.
-  if (!arrays.vsRayIsFinite(ray.o, ray.d, ray.tMax)) return false;
-  if (arrays.nodeCount == 0u) return true;
-  std::uint32_t stack[gpu::VS_BVH_STACK_SIZE];
-  int top = 0;
-  stack[top++] = 0u;
-  while (top > 0) {
-    const gpu::BvhNode& node = arrays.nodes[stack[--top]];
-    std::uint32_t nodeIndex = static_cast<std::uint32_t>(&node - arrays.nodes);
-    if (arrays.vsBoxEntry(node.boundsMin, node.boundsMax, ray.o, ray.d, 0.0f, ray.tMax) == gpu::VS_T_INFINITY) continue;
-    if (node.count == 0u) {
-      stack[top++] = node.rightOrFirst;
-      stack[top++] = nodeIndex + 1u;
-      continue;
-    }
-    for (std::uint32_t i = 0; i < node.count; ++i) {
-      std::uint32_t instance = arrays.instanceIndices[node.rightOrFirst + i];
-      const gpu::InstanceRecord& rec = arrays.instances[instance];
-      float entry = arrays.vsBoxEntry(glm::vec3(rec.boundsMin), glm::vec3(rec.boundsMax), ray.o, ray.d, 0.0f, ray.tMax);
-      if (entry == gpu::VS_T_INFINITY) continue;
-      if (ray.candidateCount == kMaxCandidates) return false;
-      ray.candidates[ray.candidateCount++] = {entry, instance};
-    }
+  if (!arrays.vsRayIsFinite(r.ray)) return false;
+  const WorldRay& ray = r.ray;
+  std::uint32_t node = 0u, entry = 0u, entryEnd = 0u;
+  while (arrays.vsNextLeafEntry(r.cullOrigin, ray.d, r.cullPad, ray.tMin, ray.tMax, node, entry, entryEnd)) {
+    std::uint32_t instance = arrays.instanceIndices[entry++];
+    const gpu::InstanceRecord& rec = arrays.instances[instance];
+    glm::vec3 pad(r.cullPad);
+    float t = arrays.vsBoxEntry(glm::vec3(rec.boundsMin) - pad, glm::vec3(rec.boundsMax) + pad, r.cullOrigin, ray.d,
+                                ray.tMin, ray.tMax);
+    if (t == gpu::VS_T_INFINITY) continue;
+    if (r.candidateCount == kMaxCandidates) return false;
+    r.candidates[r.candidateCount++] = {t, instance};
   }
-  std::sort(ray.candidates.begin(), ray.candidates.begin() + ray.candidateCount,
-            [](const Candidate& a, const Candidate& b) {
-              return a.entry < b.entry || (a.entry == b.entry && a.instance < b.instance);
-            });
+  std::sort(r.candidates.begin(), r.candidates.begin() + r.candidateCount, [](const Candidate& a, const Candidate& b) {
+    return a.entry < b.entry || (a.entry == b.entry && a.instance < b.instance);
+  });
   return true;
 }
 
 // Starts the walk through the next instance that could still hold a closer hit; false when none is left.
-inline bool beginNextWalk(gpu::SceneArrays& arrays, RayState& ray) {
-  while (ray.nextCandidate < ray.candidateCount) {
-    const Candidate& c = ray.candidates[ray.nextCandidate++];
-    if (c.entry > ray.tBest) return false;  // sorted by entry: no later box starts before the best hit
+inline bool beginNextWalk(gpu::SceneArrays& arrays, RayState& r) {
+  while (r.nextCandidate < r.candidateCount) {
+    const Candidate& c = r.candidates[r.nextCandidate++];
+    if (c.entry > r.tBest) return false;  // sorted by entry: no later box starts before the best hit
     const gpu::InstanceRecord& rec = arrays.instances[c.instance];
-    glm::vec3 lo = arrays.vsApplyAffine(rec.worldToBrick, ray.o);
-    glm::vec3 ld = arrays.vsApplyLinear(rec.worldToBrick, ray.d);
-    if (arrays.vsObjectWalkBegin(rec.info.x, lo, ld, 0.0f, ray.tBest, ray.walk)) {
-      ray.walkingInstance = c.instance;
+    float tBase = arrays.vsInstanceBaseT(r.ray, c.instance);
+    glm::vec3 lo, ld;
+    arrays.vsInstanceRay(r.ray, c.instance, tBase, lo, ld);
+    if (arrays.vsObjectWalkBegin(rec.info.x, lo, ld, arrays.vsLocalT(r.ray.tMin, tBase),
+                                 arrays.vsLocalT(r.tBest, tBase), r.walk)) {
+      r.walkingInstance = c.instance;
+      r.walkBase = tBase;
       return true;
     }
   }
   return false;
 }
 
-// The reference's rule for a walk's hit: the smallest t wins; among equal t, the lowest instance index.
-inline void recordHit(RayState& ray, float t, glm::ivec3 voxel) {
-  if (!ray.hit || t < ray.tBest || (t == ray.tBest && ray.walkingInstance < ray.instanceHit)) {
-    ray.tBest = t;
-    ray.instanceHit = ray.walkingInstance;
-    ray.voxel = voxel;
+// A walk's hit (t relative to the walk's base), kept when vsCloserHit says so.
+inline void recordHit(gpu::SceneArrays& arrays, RayState& r, float tLocal, glm::ivec3 voxel) {
+  float t = arrays.vsWorldT(tLocal, r.walkBase);
+  if (arrays.vsCloserHit(r.hit, t, r.walkingInstance, r.tBest, r.instanceHit)) {
+    r.tBest = t;
+    r.instanceHit = r.walkingInstance;
+    r.voxel = voxel;
   }
-  ray.hit = true;
+  r.hit = true;
+}
+
+// The texel value of a finished ray.
+inline float texelValue(gpu::SceneArrays& arrays, const gpu::TraceView& view, const RayState& r) {
+  return arrays.vsTexelValue(view, r.ray, r.hit, r.tBest, r.instanceHit, r.voxel);
 }
 
 }  // namespace vs::tile

@@ -20,19 +20,16 @@ void traceTileInterleaved(gpu::SceneArrays& arrays, const gpu::TraceView& view, 
   int count = 0;
   auto finish = [&](int i) {
     const RayState& r = rays[i];
-    texels[texelIndex[i]] = arrays.vsTexelValue(view, r.o, r.d, r.tMax, r.hit, r.tBest, r.instanceHit, r.voxel);
+    texels[texelIndex[i]] = tile::texelValue(arrays, view, r);
   };
   for (int y = y0; y < y1; ++y) {
     for (int x = x0; x < x1; ++x) {
       int i = count++;
       RayState& r = rays[i];
       texelIndex[i] = y * stride + x;
-      arrays.vsViewRay(view, glm::ivec2(x, y), r.o, r.d, r.tMax);
-      r.tBest = r.tMax;
-      r.hit = false;
-      r.instanceHit = 0u;
-      r.voxel = glm::ivec3(0);
-      r.nextCandidate = 0;
+      tile::WorldRay ray;
+      arrays.vsViewRay(view, glm::ivec2(x, y), ray);
+      tile::beginRay(arrays, r, ray);
       if (!collectCandidates(arrays, r)) {
         texels[texelIndex[i]] = arrays.vsShadowTexel(view, glm::ivec2(x, y));
         continue;
@@ -54,16 +51,7 @@ void traceTileInterleaved(gpu::SceneArrays& arrays, const gpu::TraceView& view, 
         active[kept++] = i;
         continue;
       }
-      if (status == gpu::VS_WALK_HIT) {
-        float t = r.walk.tEnter;
-        // The reference's rule: the smallest t wins; among equal t, the lowest instance index.
-        if (!r.hit || t < r.tBest || (t == r.tBest && r.walkingInstance < r.instanceHit)) {
-          r.tBest = t;
-          r.instanceHit = r.walkingInstance;
-          r.voxel = r.walk.v;
-        }
-        r.hit = true;
-      }
+      if (status == gpu::VS_WALK_HIT) tile::recordHit(arrays, r, r.walk.tEnter, r.walk.v);
       if (beginNextWalk(arrays, r)) {
         active[kept++] = i;
       } else {

@@ -65,11 +65,13 @@ void main() {
     instanceProbe[e].boundsMin = F4(6u, e, 24u);
     instanceProbe[e].boundsMax = F4(6u, e, 28u);
     instanceProbe[e].info = U4(6u, e, 32u);
+    instanceProbe[e].anchor = F4(6u, e, 36u);
 
     viewProbe[e].viewProj = M4(7u, e, 0u);
-    viewProbe[e].invViewProj = M4(7u, e, 16u);
-    viewProbe[e].origin = F4(7u, e, 32u);
-    viewProbe[e].rect = I4(7u, e, 36u);
-    viewProbe[e].info = I4(7u, e, 40u);
+    viewProbe[e].clipToEye = M4(7u, e, 16u);
+    viewProbe[e].eyeHigh = F4(7u, e, 32u);
+    viewProbe[e].eyeLow = F4(7u, e, 36u);
+    viewProbe[e].rect = I4(7u, e, 40u);
+    viewProbe[e].info = I4(7u, e, 44u);
   }
 }

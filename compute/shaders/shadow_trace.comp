@@ -119,6 +119,10 @@ Affine vsReadAffine(int t) {
 #define VS_READ_INSTANCE_OBJECT(i) texelFetch(instanceTexels, int((i) * VS_INSTANCE_TEXELS + VS_INSTANCE_INFO_TEXEL)).x
 #define VS_READ_WORLD_TO_BRICK(i) vsReadAffine(int((i) * VS_INSTANCE_TEXELS))
 #define VS_READ_BRICK_TO_WORLD(i) vsReadAffine(int((i) * VS_INSTANCE_TEXELS + VS_INSTANCE_BRICK_TO_WORLD_TEXEL))
+#define VS_READ_INSTANCE_TEXEL_XYZ(i, t) uintBitsToFloat(texelFetch(instanceTexels, int((i) * VS_INSTANCE_TEXELS + (t))).xyz)
+#define VS_READ_INSTANCE_BOUNDS_MIN(i) VS_READ_INSTANCE_TEXEL_XYZ(i, VS_INSTANCE_BOUNDS_MIN_TEXEL)
+#define VS_READ_INSTANCE_BOUNDS_MAX(i) VS_READ_INSTANCE_TEXEL_XYZ(i, VS_INSTANCE_BOUNDS_MAX_TEXEL)
+#define VS_READ_INSTANCE_ANCHOR(i) VS_READ_INSTANCE_TEXEL_XYZ(i, VS_INSTANCE_ANCHOR_TEXEL)
 
 #include "compute/shared/traverse.h"
 

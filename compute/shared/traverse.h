@@ -65,6 +65,15 @@
 #ifndef VS_READ_BRICK_TO_WORLD
 #define VS_READ_BRICK_TO_WORLD(i) instances[i].brickToWorld
 #endif
+#ifndef VS_READ_INSTANCE_BOUNDS_MIN
+#define VS_READ_INSTANCE_BOUNDS_MIN(i) vec3(instances[i].boundsMin)
+#endif
+#ifndef VS_READ_INSTANCE_BOUNDS_MAX
+#define VS_READ_INSTANCE_BOUNDS_MAX(i) vec3(instances[i].boundsMax)
+#endif
+#ifndef VS_READ_INSTANCE_ANCHOR
+#define VS_READ_INSTANCE_ANCHOR(i) vec3(instances[i].anchor)
+#endif
 
 // Rank of `bit` inside a 64-bit mask: how many set bits lie below it.
 uint vsRankBelow(uvec2 mask, uint bit) {
@@ -418,15 +427,135 @@ float vsBoxEntry(vec3 bmin, vec3 bmax, vec3 o, vec3 d, float tMin, float tMax) {
   return inX && inY && inZ && t0 <= t1 ? t0 : VS_T_INFINITY;
 }
 
-// Advances a depth-first walk of the instance BVH to the next leaf entry whose leaf box the ray o + t*d enters
-// within [tMin, tBest]: `node` is the next node to visit (nodeCount when none is left), [entry, entryEnd) the
-// current leaf's entries not yet taken. Returns false when no entry is left. Stackless (Bvh::nodeEscapes),
-// so a SIMD shader keeps no per-lane stack array.
-bool vsNextLeafEntry(vec3 o, vec3 d, float tMin, float tBest, VS_INOUT(uint) node, VS_INOUT(uint) entry,
+// A world ray, kept eye-relative (DESIGN.md §6): the points eyeHigh + eyeLow + start + d*t, t in [tMin, tMax].
+// The eye is two floats (their sum holds it to about 48 bits), so that a ray keeps its precision however far
+// from the world origin its eye lies; start (a directional view's near-plane point) is relative to the eye.
+struct WorldRay {
+  vec3 eyeHigh;
+  vec3 eyeLow;
+  vec3 start;
+  vec3 d;
+  float tMin;
+  float tMax;
+};
+
+// The ray origin + t*d, t in [tMin, tMax], of a float origin.
+WorldRay vsWorldRay(vec3 origin, vec3 d, float tMin, float tMax) {
+  WorldRay ray;
+  ray.eyeHigh = origin;
+  ray.eyeLow = vec3(0.0f);
+  ray.start = vec3(0.0f);
+  ray.d = d;
+  ray.tMin = tMin;
+  ray.tMax = tMax;
+  return ray;
+}
+
+// The ray's start in float, for culling against world boxes only (vsCullPad bounds its error).
+vec3 vsCullOrigin(WorldRay ray) {
+  VS_PRECISE vec3 o = ray.eyeHigh + ray.start;
+  return o;
+}
+
+// How far a world box is grown for the culling tests of one ray: more than the rounding of vsCullOrigin and
+// of the slab test's arithmetic (a few ulps of the largest magnitude involved), so that culling never drops an
+// instance the exact ray enters; a culling test that keeps too much costs a walk, never a result.
+float vsCullPad(WorldRay ray) {
+  vec3 o = abs(ray.eyeHigh) + abs(ray.start);
+  VS_PRECISE vec3 reach = abs(ray.d) * max(abs(ray.tMin), abs(ray.tMax));
+  VS_PRECISE float scale = max(max(o.x, o.y), o.z) + max(max(reach.x, reach.y), reach.z);
+  return scale * (1.0f / 1048576.0f);
+}
+
+// x with its 12 most significant bits kept (the rest cleared, toward zero): the product of two such values, or
+// of one and a remainder x - vsKeepHighBits(x), is exact in float.
+float vsKeepHighBits(float x) { return uintBitsToFloat(floatBitsToUint(x) & 0xfffff000u); }
+vec3 vsKeepHighBits3(vec3 x) { return uintBitsToFloat(floatBitsToUint(x) & uvec3(0xfffff000u)); }
+
+// a + b = s + e exactly (Knuth's two-sum; no fused or reordered operations).
+void vsTwoSum(vec3 a, vec3 b, VS_OUT(vec3) s, VS_OUT(vec3) e) {
+  VS_PRECISE vec3 sum = a + b;
+  VS_PRECISE vec3 bVirtual = sum - a;
+  VS_PRECISE vec3 err = (a - (sum - bVirtual)) + (b - bVirtual);
+  s = sum;
+  e = err;
+}
+
+// The t at which a ray's walk through an instance is re-based: its entry into the instance's world box (grown
+// by vsCullPad), or tMin when it starts inside, cut toward zero to 16 significant bits. The cut moves the
+// base back by less than 2^-15 of t (a few hundred voxels at the farthest light limits::kMaxRayVoxels allows),
+// and keeps exact inputs exact: a ray with short coordinates gets a short re-based origin and the very t it
+// got before re-basing. Depends on the ray and the instance alone, never on a backend's state.
+float vsInstanceBaseT(WorldRay ray, uint instanceIndex) {
+  float pad = vsCullPad(ray);
+  float entry = vsBoxEntry(VS_READ_INSTANCE_BOUNDS_MIN(instanceIndex) - vec3(pad),
+                           VS_READ_INSTANCE_BOUNDS_MAX(instanceIndex) + vec3(pad), vsCullOrigin(ray), ray.d,
+                           ray.tMin, ray.tMax);
+  float t = entry == VS_T_INFINITY ? ray.tMin : entry;
+  return uintBitsToFloat(floatBitsToUint(t) & 0xffffff00u);
+}
+
+// The ray's point at tBase relative to `anchor`, rounded once: d * tBase is split into four exact products
+// (each factor cut into 12-bit halves), and the eye, the start and those products are summed with every
+// rounding error carried, so the result is as precise as its own magnitude (near the instance) allows, not as
+// the eye's distance from the world origin or from the instance does.
+vec3 vsRebasedPoint(WorldRay ray, float tBase, vec3 anchor) {
+  vec3 dHigh = vsKeepHighBits3(ray.d);
+  VS_PRECISE vec3 dLow = ray.d - dHigh;
+  float tHigh = vsKeepHighBits(tBase);
+  VS_PRECISE float tLow = tBase - tHigh;
+  VS_PRECISE vec3 pHighHigh = dHigh * tHigh;
+  VS_PRECISE vec3 pHighLow = dHigh * tLow;
+  VS_PRECISE vec3 pLowHigh = dLow * tHigh;
+  VS_PRECISE vec3 pLowLow = dLow * tLow;
+  vec3 s = vec3(0.0f);
+  vec3 e1 = vec3(0.0f);
+  vec3 e2 = vec3(0.0f);
+  vec3 e3 = vec3(0.0f);
+  vec3 e4 = vec3(0.0f);
+  vec3 e5 = vec3(0.0f);
+  vsTwoSum(ray.eyeHigh, -anchor, s, e1);
+  vsTwoSum(s, pHighHigh, s, e2);
+  vsTwoSum(s, ray.start, s, e3);
+  vsTwoSum(s, pHighLow, s, e4);
+  vsTwoSum(s, pLowHigh, s, e5);
+  VS_PRECISE vec3 small = (((e1 + e2) + (e3 + e4)) + (e5 + pLowLow)) + ray.eyeLow;
+  VS_PRECISE vec3 rel = s + small;
+  return rel;
+}
+
+// The brick-space ray of one instance, re-based at tBase: brick-space t is the world t less tBase.
+void vsInstanceRay(WorldRay ray, uint instanceIndex, float tBase, VS_OUT(vec3) lo, VS_OUT(vec3) ld) {
+  Affine worldToBrick = VS_READ_WORLD_TO_BRICK(instanceIndex);
+  lo = vsApplyAffine(worldToBrick, vsRebasedPoint(ray, tBase, VS_READ_INSTANCE_ANCHOR(instanceIndex)));
+  ld = vsApplyLinear(worldToBrick, ray.d);
+}
+
+// A walk's span and hit in world t, from and to the instance's re-based t.
+float vsLocalT(float t, float tBase) {
+  VS_PRECISE float local = t - tBase;
+  return local;
+}
+float vsWorldT(float tLocal, float tBase) {
+  VS_PRECISE float world = tBase + tLocal;
+  return world;
+}
+
+// The closest-hit rule of every tracer: a hit at t on `instance` replaces the best so far (tBest on
+// instanceBest, `hit` whether there is one) when it is nearer, or as near on a lower instance index.
+bool vsCloserHit(bool hit, float t, uint instance, float tBest, uint instanceBest) {
+  return !hit || t < tBest || (t == tBest && instance < instanceBest);
+}
+
+// Advances a depth-first walk of the instance BVH to the next leaf entry whose leaf box (grown by `pad`) the
+// ray o + t*d enters within [tMin, tBest]: `node` is the next node to visit (nodeCount when none is left),
+// [entry, entryEnd) the current leaf's entries not yet taken. Returns false when no entry is left. Stackless
+// (Bvh::nodeEscapes), so a SIMD shader keeps no per-lane stack array.
+bool vsNextLeafEntry(vec3 o, vec3 d, float pad, float tMin, float tBest, VS_INOUT(uint) node, VS_INOUT(uint) entry,
                      VS_INOUT(uint) entryEnd) {
   while (entry >= entryEnd && node < nodeCount) {
     BvhNode n = VS_READ_NODE(node);
-    bool entered = vsBoxEntry(n.boundsMin, n.boundsMax, o, d, tMin, tBest) != VS_T_INFINITY;
+    bool entered = vsBoxEntry(n.boundsMin - vec3(pad), n.boundsMax + vec3(pad), o, d, tMin, tBest) != VS_T_INFINITY;
     bool leaf = n.count > 0u;
     entry = entered && leaf ? n.rightOrFirst : entry;
     entryEnd = entered && leaf ? n.rightOrFirst + n.count : entryEnd;
@@ -435,35 +564,39 @@ bool vsNextLeafEntry(vec3 o, vec3 d, float tMin, float tBest, VS_INOUT(uint) nod
   return entry < entryEnd;
 }
 
-// Closest hit of the world ray o + t*d, t in [tMin, tMax], over every instance. On a hit, tHit is the entry t,
-// instanceHit the instance index and voxel the hit voxel in that object's brick space. Instances are taken in
-// depth-first BVH order, left child first; equal hits go to the lower instance index.
-bool vsTraceClosest(vec3 o, vec3 d, float tMin, float tMax, VS_INOUT(float) tHit, VS_INOUT(uint) instanceHit,
-                    VS_INOUT(ivec3) voxel) {
+// Closest hit of a world ray over every instance. On a hit, tHit is the entry t, instanceHit the instance index
+// and voxel the hit voxel in that object's brick space. Instances are taken in depth-first BVH order, left child
+// first; the closest-hit rule is vsCloserHit.
+bool vsTraceClosest(WorldRay ray, VS_INOUT(float) tHit, VS_INOUT(uint) instanceHit, VS_INOUT(ivec3) voxel) {
   bool hit = false;
-  float tBest = tMax;
+  float tBest = ray.tMax;
   uint node = 0u;
   uint entry = 0u;
   uint entryEnd = 0u;
+  vec3 o = vsCullOrigin(ray);
+  float pad = vsCullPad(ray);
   // One loop over instances, the walk the only loop inside it: llvmpipe runs nested loops much slower.
-  bool more = vsNextLeafEntry(o, d, tMin, tBest, node, entry, entryEnd);
+  bool more = vsNextLeafEntry(o, ray.d, pad, ray.tMin, tBest, node, entry, entryEnd);
   while (more) {
     uint instanceIndex = VS_READ_INSTANCE_INDEX(entry);
     entry += 1u;
-    Affine worldToBrick = VS_READ_WORLD_TO_BRICK(instanceIndex);
-    vec3 lo = vsApplyAffine(worldToBrick, o);
-    vec3 ld = vsApplyLinear(worldToBrick, d);
+    float tBase = vsInstanceBaseT(ray, instanceIndex);
+    vec3 lo = vec3(0.0f);
+    vec3 ld = vec3(0.0f);
+    vsInstanceRay(ray, instanceIndex, tBase, lo, ld);
     float t = VS_T_INFINITY;
     ivec3 v = ivec3(0);
-    if (vsTraceObject(VS_READ_INSTANCE_OBJECT(instanceIndex), lo, ld, tMin, tBest, t, v)) {
-      if (!hit || t < tBest || (t == tBest && instanceIndex < instanceHit)) {
-        tBest = t;
+    if (vsTraceObject(VS_READ_INSTANCE_OBJECT(instanceIndex), lo, ld, vsLocalT(ray.tMin, tBase),
+                      vsLocalT(tBest, tBase), t, v)) {
+      float tWorld = vsWorldT(t, tBase);
+      if (vsCloserHit(hit, tWorld, instanceIndex, tBest, instanceHit)) {
+        tBest = tWorld;
         instanceHit = instanceIndex;
         voxel = v;
       }
       hit = true;
     }
-    more = vsNextLeafEntry(o, d, tMin, tBest, node, entry, entryEnd);
+    more = vsNextLeafEntry(o, ray.d, pad, ray.tMin, tBest, node, entry, entryEnd);
   }
   if (hit) tHit = tBest;
   return hit;
@@ -474,44 +607,54 @@ vec4 vsMulPoint(mat4 m, vec4 p) {
   return r;
 }
 
-// The ray of one texel of a view: origin, direction and parameter range (DESIGN.md §2, §6).
-// Directional (NDC-depth) views: o on the near plane, d reaching the far plane at t = 1, so t is the NDC depth.
-// Linear-distance views: o at the light, |d| = 1, t in [0, range] is the distance.
-void vsViewRay(TraceView view, ivec2 texel, VS_OUT(vec3) o, VS_OUT(vec3) d, VS_OUT(float) tMax) {
+// The ray of one texel of a view (DESIGN.md §2, §6), eye-relative: the texel centre's NDC point unprojected
+// through clipToEye gives a point relative to the eye, with no translation to cancel.
+// Directional (NDC-depth) views: the ray starts on the near plane and reaches the far plane at t = 1, so t is
+// the NDC depth. Linear-distance views: the ray starts at the eye (the light), |d| = 1, t in [0, range] is the
+// distance.
+void vsViewRay(TraceView view, ivec2 texel, VS_OUT(WorldRay) ray) {
   VS_PRECISE float nx = (float(texel.x) + 0.5f) / float(view.info.x) * 2.0f - 1.0f;
   VS_PRECISE float ny = (float(texel.y) + 0.5f) / float(view.info.y) * 2.0f - 1.0f;
-  vec4 farH = vsMulPoint(view.invViewProj, vec4(nx, ny, 1.0f, 1.0f));
+  vec4 farH = vsMulPoint(view.clipToEye, vec4(nx, ny, 1.0f, 1.0f));
   VS_PRECISE vec3 farP = vec3(farH.x / farH.w, farH.y / farH.w, farH.z / farH.w);
+  ray.eyeHigh = vec3(view.eyeHigh);
+  ray.eyeLow = vec3(view.eyeLow);
+  ray.tMin = 0.0f;
   if (view.info.z == VS_ENCODING_NDC_DEPTH) {
-    vec4 nearH = vsMulPoint(view.invViewProj, vec4(nx, ny, 0.0f, 1.0f));
+    vec4 nearH = vsMulPoint(view.clipToEye, vec4(nx, ny, 0.0f, 1.0f));
     VS_PRECISE vec3 nearP = vec3(nearH.x / nearH.w, nearH.y / nearH.w, nearH.z / nearH.w);
-    o = nearP;
-    d = farP - nearP;
-    tMax = 1.0f;
+    VS_PRECISE vec3 d = farP - nearP;
+    ray.start = nearP;
+    ray.d = d;
+    ray.tMax = 1.0f;
   } else {
-    o = vec3(view.origin);
-    VS_PRECISE vec3 toFar = farP - o;
-    VS_PRECISE float len = sqrt(toFar.x * toFar.x + toFar.y * toFar.y + toFar.z * toFar.z);
-    d = toFar / len;
-    tMax = view.origin.w;
+    VS_PRECISE float len = sqrt(farP.x * farP.x + farP.y * farP.y + farP.z * farP.z);
+    VS_PRECISE vec3 d = farP / len;
+    ray.start = vec3(0.0f);
+    ray.d = d;
+    ray.tMax = view.eyeHigh.w;
   }
 }
 
 // The texel value of a traced ray (DESIGN.md §2): the hit's t (entry point) or that of the hit voxel's
-// centre, and the miss value (the t range end) when nothing was hit.
-float vsTexelValue(TraceView view, vec3 o, vec3 d, float tMax, bool hit, float tHit, uint instanceHit,
-                   ivec3 voxel) {
-  if (!hit) return tMax;
+// centre, and the miss value (the t range end) when nothing was hit. The centre is measured from the ray's
+// re-based point on the hit instance (vsRebasedPoint), so it keeps the walk's precision far from the origin.
+float vsTexelValue(TraceView view, WorldRay ray, bool hit, float tHit, uint instanceHit, ivec3 voxel) {
+  if (!hit) return ray.tMax;
   if (VS_VIEW_DEPTH_AT_CENTER(view)) {
+    float tBase = vsInstanceBaseT(ray, instanceHit);
+    vec3 base = vsRebasedPoint(ray, tBase, VS_READ_INSTANCE_ANCHOR(instanceHit));
     vec3 c = vsApplyAffine(VS_READ_BRICK_TO_WORLD(instanceHit), vec3(voxel) + vec3(0.5f));
-    VS_PRECISE vec3 rel = c - o;
+    VS_PRECISE vec3 rel = c - base;  // from the ray's point at tBase to the centre
+    vec3 d = ray.d;
     if (view.info.z == VS_ENCODING_NDC_DEPTH) {
       VS_PRECISE float dd = d.x * d.x + d.y * d.y + d.z * d.z;
-      VS_PRECISE float t = (rel.x * d.x + rel.y * d.y + rel.z * d.z) / dd;
+      VS_PRECISE float t = tBase + (rel.x * d.x + rel.y * d.y + rel.z * d.z) / dd;
       return clamp(t, 0.0f, 1.0f);
     }
-    VS_PRECISE float dist = sqrt(rel.x * rel.x + rel.y * rel.y + rel.z * rel.z);
-    return min(dist, tMax);
+    VS_PRECISE vec3 fromEye = ray.start + d * tBase + rel;
+    VS_PRECISE float dist = sqrt(fromEye.x * fromEye.x + fromEye.y * fromEye.y + fromEye.z * fromEye.z);
+    return min(dist, ray.tMax);
   }
   return tHit;
 }
@@ -519,22 +662,22 @@ float vsTexelValue(TraceView view, vec3 o, vec3 d, float tMax, bool hit, float t
 // Whether every component of a ray is finite. Comparisons, not isnan/isinf, so that GLSL and C++ read it
 // alike: a NaN fails every comparison. A non-finite ray (a degenerate view matrix) is a miss, so that no
 // tracer turns it into a voxel coordinate.
-bool vsRayIsFinite(vec3 o, vec3 d, float tMax) {
-  vec3 ao = abs(o);
-  vec3 ad = abs(d);
-  return ao.x <= VS_T_INFINITY && ao.y <= VS_T_INFINITY && ao.z <= VS_T_INFINITY && ad.x <= VS_T_INFINITY &&
-         ad.y <= VS_T_INFINITY && ad.z <= VS_T_INFINITY && abs(tMax) <= VS_T_INFINITY;
+bool vsIsFinite3(vec3 v) {
+  vec3 a = abs(v);
+  return a.x <= VS_T_INFINITY && a.y <= VS_T_INFINITY && a.z <= VS_T_INFINITY;
+}
+bool vsRayIsFinite(WorldRay ray) {
+  return vsIsFinite3(ray.eyeHigh) && vsIsFinite3(ray.eyeLow) && vsIsFinite3(ray.start) && vsIsFinite3(ray.d) &&
+         abs(ray.tMin) <= VS_T_INFINITY && abs(ray.tMax) <= VS_T_INFINITY;
 }
 
 // The texel value of one view texel.
 float vsShadowTexel(TraceView view, ivec2 texel) {
-  vec3 o = vec3(0.0f);
-  vec3 d = vec3(0.0f);
-  float tMax = 0.0f;
-  vsViewRay(view, texel, o, d, tMax);
-  float tHit = tMax;
+  WorldRay ray;
+  vsViewRay(view, texel, ray);
+  float tHit = ray.tMax;
   uint instanceHit = 0u;
   ivec3 voxel = ivec3(0);
-  bool hit = vsRayIsFinite(o, d, tMax) && vsTraceClosest(o, d, 0.0f, tMax, tHit, instanceHit, voxel);
-  return vsTexelValue(view, o, d, tMax, hit, tHit, instanceHit, voxel);
+  bool hit = vsRayIsFinite(ray) && vsTraceClosest(ray, tHit, instanceHit, voxel);
+  return vsTexelValue(view, ray, hit, tHit, instanceHit, voxel);
 }

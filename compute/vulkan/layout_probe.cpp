@@ -11,7 +11,7 @@ namespace vs {
 namespace {
 
 constexpr std::uint32_t kStructs = 8;
-// Generous: two elements of the largest record (TraceView, 176 bytes) even if GLSL padded them.
+// Generous: two elements of the largest record (TraceView, 192 bytes) even if GLSL padded them.
 constexpr VkDeviceSize kProbeBytes = 1024;
 const char* kNames[kStructs] = {"Region", "Sector", "Brick", "ObjectRecord", "BvhNode", "Affine", "InstanceRecord",
                                 "TraceView"};

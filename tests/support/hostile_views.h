@@ -26,19 +26,19 @@ inline std::vector<HostileView> hostileViews(const Aabb& bounds) {
   glm::vec3 c = (bounds.min + bounds.max) * 0.5f;
   std::vector<HostileView> out;
   gpu::TraceView v = directionalView(bounds, {-0.4f, -1.0f, -0.3f}, 24);
-  v.invViewProj[0][0] = nan;
+  v.clipToEye[0][0] = nan;
   out.push_back({v, 1.0f});
   v = directionalView(bounds, {0.0f, -1.0f, 0.0f}, 24);
-  v.invViewProj[3][1] = inf;
+  v.clipToEye[3][1] = inf;
   out.push_back({v, 1.0f});
   v = distanceView(c + glm::vec3(0, 30, 0), {0, -1, 0}, 100.0f, 16);
-  v.origin.x = inf;
+  v.eyeHigh.x = inf;
   out.push_back({v, 100.0f});
   v = distanceView(c + glm::vec3(0, 30, 0), {0, -1, 0}, 100.0f, 16);
-  v.origin = glm::vec4(1e30f, -1e30f, 1e30f, 100.0f);
+  v.eyeHigh = glm::vec4(1e30f, -1e30f, 1e30f, 100.0f);
   out.push_back({v, 100.0f});
   v = distanceView(c + glm::vec3(0, 30, 0), {0, -1, 0}, 100.0f, 16);
-  v.origin.w = nan;
+  v.eyeHigh.w = nan;
   out.push_back({v, nan});
   return out;
 }

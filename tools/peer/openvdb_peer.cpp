@@ -56,14 +56,18 @@ OpenVdbPeer::OpenVdbPeer(std::span<const Brickmap* const> brickmaps, const Scene
     objects_.push_back(makeObject(grid));
   }
   threads_ = std::make_unique<ThreadStates>();
-  for (const gpu::InstanceRecord& inst : scene.instances) instances_.push_back({inst.info.x, inst.worldToBrick});
+  instances_ = scene.instances;
 }
 
 OpenVdbPeer::OpenVdbPeer(openvdb::BoolGrid::Ptr grid) {
   initOpenVdb();
   objects_.push_back(makeObject(std::move(grid)));
-  gpu::Affine identity{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
-  instances_.push_back({0u, identity});
+  gpu::InstanceRecord identity{};
+  identity.worldToBrick = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
+  identity.brickToWorld = identity.worldToBrick;
+  identity.boundsMin = glm::vec4(glm::vec3(-gpu::VS_T_INFINITY), 0.0f);
+  identity.boundsMax = glm::vec4(glm::vec3(gpu::VS_T_INFINITY), 0.0f);
+  instances_.push_back(identity);
   threads_ = std::make_unique<ThreadStates>();
 }
 
@@ -93,20 +97,14 @@ bool traceGrid(Intersector& inter, const openvdb::BoolGrid::ConstAccessor& acc, 
 
 }  // namespace
 
-namespace {
-
-// The brick-space ray of an instance, in float and in the traversal's operation order (vsApplyAffine,
-// vsApplyLinear), so that the peer starts from exactly the traversal's ray.
-glm::vec3 applyAffine(const gpu::Affine& m, const glm::vec3& p, float w) {
-  return glm::vec3(m.row0.x * p.x + m.row0.y * p.y + m.row0.z * p.z + m.row0.w * w,
-                   m.row1.x * p.x + m.row1.y * p.y + m.row1.z * p.z + m.row1.w * w,
-                   m.row2.x * p.x + m.row2.y * p.y + m.row2.z * p.z + m.row2.w * w);
-}
-
-}  // namespace
-
 bool OpenVdbPeer::trace(const glm::vec3& o, const glm::vec3& d, double tMin, double tMax, double& tHit,
                         std::uint32_t& instance, glm::ivec3& voxel) const {
+  gpu::SceneArrays arrays;
+  return trace(arrays.vsWorldRay(o, d, float(tMin), float(tMax)), tHit, instance, voxel);
+}
+
+bool OpenVdbPeer::trace(const gpu::SceneArrays::WorldRay& ray, double& tHit, std::uint32_t& instance,
+                        glm::ivec3& voxel) const {
   ThreadState& state = threads_->states.local();
   if (state.intersectors.size() != objects_.size()) {
     for (const auto& obj : objects_) {
@@ -114,20 +112,28 @@ bool OpenVdbPeer::trace(const glm::vec3& o, const glm::vec3& d, double tMin, dou
       state.accessors.push_back(std::make_unique<openvdb::BoolGrid::ConstAccessor>(obj->grid->getConstAccessor()));
     }
   }
+  // The traversal's instance set-up reads only the instance records.
+  gpu::SceneArrays arrays;
+  arrays.instances = instances_.data();
   bool hit = false;
-  double best = tMax;
+  double best = ray.tMax;
   for (std::size_t i = 0; i < instances_.size(); ++i) {
-    const Placed& placed = instances_[i];
-    if (!state.intersectors[placed.object]) continue;
-    glm::dvec3 lo(applyAffine(placed.worldToBrick, o, 1.0f));
-    glm::dvec3 ld(applyAffine(placed.worldToBrick, d, 0.0f));
-    PeerRay ray(openvdb::Vec3d(lo.x, lo.y, lo.z), openvdb::Vec3d(ld.x, ld.y, ld.z), tMin, best);
+    const std::uint32_t object = instances_[i].info.x;
+    if (!state.intersectors[object]) continue;
+    const auto index = static_cast<std::uint32_t>(i);
+    const float tBase = arrays.vsInstanceBaseT(ray, index);
+    glm::vec3 lo, ld;
+    arrays.vsInstanceRay(ray, index, tBase, lo, ld);
+    // The intersector expects t >= 0: the local ray starts at the world ray's tMin (in double).
+    const double tStart = double(ray.tMin);
+    const glm::dvec3 start = glm::dvec3(lo) + glm::dvec3(ld) * (tStart - double(tBase));
+    PeerRay local(openvdb::Vec3d(start.x, start.y, start.z), openvdb::Vec3d(ld.x, ld.y, ld.z), 0.0, best - tStart);
     double t = 0.0;
     openvdb::Coord c;
-    if (traceGrid(*state.intersectors[placed.object], *state.accessors[placed.object], ray, t, c) && t <= best) {
-      if (!hit || t < best) {
-        best = t;
-        instance = static_cast<std::uint32_t>(i);
+    if (traceGrid(*state.intersectors[object], *state.accessors[object], local, t, c) && t + tStart <= best) {
+      if (!hit || t + tStart < best) {
+        best = t + tStart;
+        instance = index;
         voxel = glm::ivec3(c.x(), c.y(), c.z());
       }
       hit = true;
@@ -148,14 +154,13 @@ std::vector<std::vector<float>> OpenVdbPeer::traceViews(const SceneData& scene, 
       tbb::parallel_for(tbb::blocked_range<int>(view.rect.y, view.rect.w), [&](const tbb::blocked_range<int>& rows) {
         for (int y = rows.begin(); y != rows.end(); ++y) {
           for (int x = view.rect.x; x < view.rect.z; ++x) {
-            glm::vec3 o(0.0f), d(0.0f);
-            float tMax = 0.0f;
-            arrays.vsViewRay(view, glm::ivec2(x, y), o, d, tMax);
-            double t = tMax;
+            gpu::SceneArrays::WorldRay ray;
+            arrays.vsViewRay(view, glm::ivec2(x, y), ray);
+            double t = ray.tMax;
             std::uint32_t inst = 0;
             glm::ivec3 v(0);
-            bool hit = trace(o, d, 0.0, double(tMax), t, inst, v);
-            out[i][std::size_t(y) * view.info.x + x] = hit ? float(t) : tMax;
+            bool hit = trace(ray, t, inst, v);
+            out[i][std::size_t(y) * view.info.x + x] = hit ? float(t) : ray.tMax;
           }
         }
       });

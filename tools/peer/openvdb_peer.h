@@ -11,6 +11,7 @@
 #include <glm/glm.hpp>
 #include <openvdb/openvdb.h>
 
+#include "compute/cpu/scene_arrays.h"
 #include "compute/scene_data.h"
 
 namespace vs {
@@ -28,8 +29,11 @@ class OpenVdbPeer {
   // Wraps a ready BoolGrid as object 0 with one identity instance (benchmarks build it once).
   explicit OpenVdbPeer(openvdb::BoolGrid::Ptr grid);
 
-  // Closest hit of the world ray o + t*d, t in [tMin, tMax], over every instance (brute force).
+  // Closest hit of the world ray over every instance (brute force); each instance is entered through the
+  // traversal's own re-based brick-space ray (vsInstanceBaseT, vsInstanceRay), and t is the world t.
   // tHit is the entry time of the hit voxel. Thread-safe.
+  bool trace(const gpu::SceneArrays::WorldRay& ray, double& tHit, std::uint32_t& instance, glm::ivec3& voxel) const;
+  // The same for the ray o + t*d, t in [tMin, tMax].
   bool trace(const glm::vec3& o, const glm::vec3& d, double tMin, double tMax, double& tHit,
              std::uint32_t& instance, glm::ivec3& voxel) const;
 
@@ -42,11 +46,7 @@ class OpenVdbPeer {
 
  private:
   std::vector<std::unique_ptr<Object>> objects_;
-  struct Placed {
-    std::uint32_t object;
-    gpu::Affine worldToBrick;
-  };
-  std::vector<Placed> instances_;
+  std::vector<gpu::InstanceRecord> instances_;
   struct ThreadStates;
   std::unique_ptr<ThreadStates> threads_;  // per-thread intersector copies (accessors are not shareable)
 };
