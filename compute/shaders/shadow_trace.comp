@@ -16,53 +16,50 @@
 #include "voxel/brickmap_layout.h"
 #include "bvh/bvh_layout.h"
 #include "compute/shared/trace_view.h"
+#include "compute/shared/trace_interface.h"
 
-layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+layout(local_size_x = VS_TRACE_GROUP_WIDTH, local_size_y = VS_TRACE_GROUP_HEIGHT, local_size_z = 1) in;
 
-// Each per-object array may span several buffers of 2^shift elements, so no binding exceeds the device's
+// Each per-object array may span VS_MAX_CHUNKS buffers of 2^shift elements, so no binding exceeds the device's
 // maxStorageBufferRange. Unused chunks are bound to a small placeholder buffer.
-#define VS_MAX_CHUNKS 4
-
-layout(std430, set = 0, binding = 0) readonly buffer RegionTableChunk { uint data[]; } regionTableChunks[VS_MAX_CHUNKS];
-layout(std430, set = 0, binding = 1) readonly buffer RegionChunk { Region data[]; } regionChunks[VS_MAX_CHUNKS];
-layout(std430, set = 0, binding = 2) readonly buffer SectorChunk { Sector data[]; } sectorChunks[VS_MAX_CHUNKS];
-layout(std430, set = 0, binding = 3) readonly buffer BrickChunk { Brick data[]; } brickChunks[VS_MAX_CHUNKS];
-layout(std430, set = 0, binding = 4) readonly buffer OccupancyChunk { uint data[]; } occupancyChunks[VS_MAX_CHUNKS];
+layout(std430, set = 0, binding = VS_BINDING_REGION_TABLE) readonly buffer RegionTableChunk { uint data[]; }
+regionTableChunks[VS_MAX_CHUNKS];
+layout(std430, set = 0, binding = VS_BINDING_REGIONS) readonly buffer RegionChunk { Region data[]; }
+regionChunks[VS_MAX_CHUNKS];
+layout(std430, set = 0, binding = VS_BINDING_SECTORS) readonly buffer SectorChunk { Sector data[]; }
+sectorChunks[VS_MAX_CHUNKS];
+layout(std430, set = 0, binding = VS_BINDING_BRICKS) readonly buffer BrickChunk { Brick data[]; }
+brickChunks[VS_MAX_CHUNKS];
+layout(std430, set = 0, binding = VS_BINDING_OCCUPANCY) readonly buffer OccupancyChunk { uint data[]; }
+occupancyChunks[VS_MAX_CHUNKS];
 // Records as RGBA32UI texels (the VS_*_TEXELS of the layout headers), instance indices and node escapes
 // (Bvh::nodeEscapes) as R32UI.
-layout(set = 0, binding = 5) uniform usamplerBuffer objectTexels;
-layout(set = 0, binding = 6) uniform usamplerBuffer instanceTexels;
-layout(set = 0, binding = 7) uniform usamplerBuffer nodeTexels;
-layout(set = 0, binding = 8) uniform usamplerBuffer instanceIndexTexels;
-layout(set = 0, binding = 12) uniform usamplerBuffer nodeEscapeTexels;
+layout(set = 0, binding = VS_BINDING_OBJECTS) uniform usamplerBuffer objectTexels;
+layout(set = 0, binding = VS_BINDING_INSTANCES) uniform usamplerBuffer instanceTexels;
+layout(set = 0, binding = VS_BINDING_NODES) uniform usamplerBuffer nodeTexels;
+layout(set = 0, binding = VS_BINDING_INSTANCE_INDICES) uniform usamplerBuffer instanceIndexTexels;
+layout(set = 0, binding = VS_BINDING_NODE_ESCAPES) uniform usamplerBuffer nodeEscapeTexels;
 // The layer's view, bound at a dynamic offset per dispatch. Every TraceView member is 16-byte aligned, so its
 // std140 layout is its std430 one.
-layout(std140, set = 0, binding = 9) uniform ViewBlock { TraceView currentView; };
-layout(set = 0, binding = 10, r32f) uniform writeonly image2DArray shadowImage;
+layout(std140, set = 0, binding = VS_BINDING_VIEW) uniform ViewBlock { TraceView currentView; };
+layout(set = 0, binding = VS_BINDING_SHADOW_IMAGE, r32f) uniform writeonly image2DArray shadowImage;
 // The box table (traverse.h, vsObjectWalkBoxes): one first-code index per object, the codes, then the
 // occupancy words the codes of partial bricks point to, so that a step reads this one texel buffer.
-layout(set = 0, binding = 11) uniform isamplerBuffer boxTable;
+layout(set = 0, binding = VS_BINDING_BOX_TABLE) uniform isamplerBuffer boxTable;
 
-layout(push_constant) uniform TracePush {
-  uint nodeCount;
-  uint regionTableShift;
-  uint regionShift;
-  uint sectorShift;
-  uint brickShift;
-  uint occupancyShift;
-  uint layer;  // the image layer this dispatch writes
-};
+layout(push_constant) uniform TracePushBlock { TracePush push; };
+#define nodeCount (push.nodeCount)
 
 // False when every array fits one binding (the usual case). A specialization constant, so the pipeline
 // without splits drops the chunk selection at compile time: llvmpipe runs every branch of a divergent `if`
 // with lanes masked off, which made each read cost four loads.
-layout(constant_id = 0) const bool VS_SPLIT_BINDINGS = true;
+layout(constant_id = VS_SPEC_SPLIT_BINDINGS) const bool VS_SPLIT_BINDINGS = true;
 // True when the host uploaded a box table: the object walks read it instead of the brickmap hierarchy
 // (fewer, cheaper steps; same texels). A specialization constant, so each pipeline holds one walk only.
-layout(constant_id = 1) const bool VS_BOX_TABLE = false;
+layout(constant_id = VS_SPEC_BOX_TABLE) const bool VS_BOX_TABLE = false;
 // True when the dispatch's view puts its depth at the hit voxel's centre (TraceView info.w): a specialization
 // constant, so a dispatch runs only its own view's depth code (llvmpipe would run both, lanes masked off).
-layout(constant_id = 2) const bool VS_DEPTH_AT_CENTER = false;
+layout(constant_id = VS_SPEC_DEPTH_AT_CENTER) const bool VS_DEPTH_AT_CENTER = false;
 #define VS_VIEW_DEPTH_AT_CENTER(view) VS_DEPTH_AT_CENTER
 
 // A chunk index differs between invocations, so each case indexes the block array with a constant:
@@ -78,11 +75,11 @@ layout(constant_id = 2) const bool VS_DEPTH_AT_CENTER = false;
   else value = chunks[3].data[j];                                               \
   return value;
 
-uint vsReadRegionTable(uint i) { VS_CHUNK_READ(uint, regionTableChunks, regionTableShift, i) }
-Region vsReadRegion(uint i) { VS_CHUNK_READ(Region, regionChunks, regionShift, i) }
-Sector vsReadSector(uint i) { VS_CHUNK_READ(Sector, sectorChunks, sectorShift, i) }
-Brick vsReadBrick(uint i) { VS_CHUNK_READ(Brick, brickChunks, brickShift, i) }
-uint vsReadOccupancy(uint i) { VS_CHUNK_READ(uint, occupancyChunks, occupancyShift, i) }
+uint vsReadRegionTable(uint i) { VS_CHUNK_READ(uint, regionTableChunks, push.regionTableShift, i) }
+Region vsReadRegion(uint i) { VS_CHUNK_READ(Region, regionChunks, push.regionShift, i) }
+Sector vsReadSector(uint i) { VS_CHUNK_READ(Sector, sectorChunks, push.sectorShift, i) }
+Brick vsReadBrick(uint i) { VS_CHUNK_READ(Brick, brickChunks, push.brickShift, i) }
+uint vsReadOccupancy(uint i) { VS_CHUNK_READ(uint, occupancyChunks, push.occupancyShift, i) }
 
 #define VS_READ_REGION_TABLE(i) vsReadRegionTable(i)
 #define VS_READ_REGIONS(i) vsReadRegion(i)
@@ -129,5 +126,5 @@ Affine vsReadAffine(int t) {
 void main() {
   ivec2 texel = currentView.rect.xy + ivec2(gl_GlobalInvocationID.xy);
   if (texel.x >= currentView.rect.z || texel.y >= currentView.rect.w) return;
-  imageStore(shadowImage, ivec3(texel, int(layer)), vec4(vsShadowTexel(currentView, texel)));
+  imageStore(shadowImage, ivec3(texel, int(push.layer)), vec4(vsShadowTexel(currentView, texel)));
 }

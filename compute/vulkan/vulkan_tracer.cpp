@@ -7,27 +7,34 @@
 #include <chrono>
 #include <cstring>
 #include <limits>
+#include <map>
 
 #include "compute/cpu/lane_tracer.h"
 #include "compute/vulkan/pipeline_cache.h"
 #include "shadow_trace.spv.h"
+#include "compute/shared/trace_interface.h"
 #include "voxel/error.h"
 
 namespace vs {
 namespace {
 
-constexpr std::uint32_t kSplitBindings = kSplitArrayCount;  // bindings 0..4
-constexpr std::uint32_t kObjectsBinding = 5, kInstancesBinding = 6, kNodesBinding = 7, kIndicesBinding = 8;
-constexpr std::uint32_t kViewsBinding = 9, kImageBinding = 10, kBoxCodesBinding = 11, kEscapesBinding = 12;
+constexpr std::uint32_t kSplitBindings = gpu::VS_SPLIT_ARRAY_COUNT;  // bindings 0..4
+static_assert(gpu::VS_BINDING_REGION_TABLE == 0u && gpu::VS_BINDING_OCCUPANCY == kSplitBindings - 1u,
+              "split array i is bound at binding i");
+constexpr std::uint32_t kObjectsBinding = gpu::VS_BINDING_OBJECTS, kInstancesBinding = gpu::VS_BINDING_INSTANCES;
+constexpr std::uint32_t kNodesBinding = gpu::VS_BINDING_NODES, kIndicesBinding = gpu::VS_BINDING_INSTANCE_INDICES;
+constexpr std::uint32_t kViewsBinding = gpu::VS_BINDING_VIEW, kImageBinding = gpu::VS_BINDING_SHADOW_IMAGE;
+constexpr std::uint32_t kBoxCodesBinding = gpu::VS_BINDING_BOX_TABLE, kEscapesBinding = gpu::VS_BINDING_NODE_ESCAPES;
 constexpr const char* kSplitNames[kSplitArrayCount] = {"regionTable", "regions", "sectors", "bricks", "occupancy"};
 
-// Mirrors the shader's TracePush block.
-struct TracePush {
-  std::uint32_t nodeCount;
-  std::uint32_t shifts[kSplitArrayCount];
-  std::uint32_t layer;
-};
-static_assert(sizeof(TracePush) == 28);
+using gpu::TracePush;
+using gpu::TracePipelineOptions;
+
+// The shift fields of the push block, in split-array order.
+std::uint32_t* pushShifts(TracePush& push) { return &push.regionTableShift; }
+static_assert(offsetof(TracePush, occupancyShift) - offsetof(TracePush, regionTableShift) ==
+                  (kSplitArrayCount - 1) * sizeof(std::uint32_t),
+              "the shifts are consecutive, in split-array order");
 
 // The per-ray records, bound as texel buffers (see shadow_trace.comp): name, texel format, texels per element.
 struct RecordArray {
@@ -97,7 +104,7 @@ struct VulkanTracer::Impl {
   // One pipeline per value of the shader's specialization constants (arrays over several bindings or not,
   // walk with or without the box table, depth at the entry point or the voxel centre), created on first need
   // by variant().
-  std::array<vk::UniquePipeline, 8> variants;
+  std::map<TracePipelineOptions, vk::UniquePipeline> variants;
   vk::UniqueDescriptorPool descriptorPool;
   VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
   vk::UniqueQueryPool queryPool;
@@ -155,7 +162,7 @@ struct VulkanTracer::Impl {
   void createPipeline() {
     VkDevice dev = context.device();
     std::vector<VkDescriptorSetLayoutBinding> bindings;
-    for (std::uint32_t b = 0; b <= kEscapesBinding; ++b) {
+    for (std::uint32_t b = 0; b < gpu::VS_BINDING_COUNT; ++b) {
       VkDescriptorSetLayoutBinding lb{};
       lb.binding = b;
       lb.descriptorType = b < kSplitBindings     ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
@@ -187,7 +194,7 @@ struct VulkanTracer::Impl {
     cache = std::make_unique<DiskPipelineCache>(context, dir);
     module = context.createShaderModule(shadow_trace, sizeof(shadow_trace));
     auto t0 = std::chrono::steady_clock::now();
-    variant(false, options.boxTable, false);  // the usual one, so that creation is timed and cached here
+    variant(TracePipelineOptions{.boxTable = options.boxTable});  // the usual one: creation is timed and cached here
     pipelineStats.createMs = msSince(t0);
     pipelineStats.warmCache = cache->warm();
     pipelineStats.cacheEmpty = cache->empty();
@@ -215,22 +222,22 @@ struct VulkanTracer::Impl {
     vk::check(vkAllocateDescriptorSets(dev, &ai, &descriptorSet), "vkAllocateDescriptorSets");
   }
 
-  // The trace pipeline with the shader's specialization constants VS_SPLIT_BINDINGS = `split`, VS_BOX_TABLE =
-  // `boxes` and VS_DEPTH_AT_CENTER = `centerDepth`; created (and the disk cache saved) on first need.
-  VkPipeline variant(bool split, bool boxes, bool centerDepth) {
-    vk::UniquePipeline& p = variants[(split ? 4 : 0) + (boxes ? 2 : 0) + (centerDepth ? 1 : 0)];
+  // The trace pipeline of one variant; created (and the disk cache saved) on first need.
+  VkPipeline variant(const TracePipelineOptions& options) {
+    vk::UniquePipeline& p = variants[options];
     if (!p) {
-      p = makePipeline(split, boxes, centerDepth);
+      p = makePipeline(options);
       cache->save();
     }
     return p.get();
   }
 
-  vk::UniquePipeline makePipeline(bool split, bool boxes, bool centerDepth) {
-    VkBool32 values[3] = {split ? VK_TRUE : VK_FALSE, boxes ? VK_TRUE : VK_FALSE, centerDepth ? VK_TRUE : VK_FALSE};
-    VkSpecializationMapEntry entries[3] = {{0, 0, sizeof(VkBool32)},
-                                           {1, sizeof(VkBool32), sizeof(VkBool32)},
-                                           {2, 2 * sizeof(VkBool32), sizeof(VkBool32)}};
+  vk::UniquePipeline makePipeline(const TracePipelineOptions& options) {
+    VkBool32 values[3] = {options.splitBindings ? VK_TRUE : VK_FALSE, options.boxTable ? VK_TRUE : VK_FALSE,
+                          options.depthAtCenter ? VK_TRUE : VK_FALSE};
+    VkSpecializationMapEntry entries[3] = {{gpu::VS_SPEC_SPLIT_BINDINGS, 0, sizeof(VkBool32)},
+                                           {gpu::VS_SPEC_BOX_TABLE, sizeof(VkBool32), sizeof(VkBool32)},
+                                           {gpu::VS_SPEC_DEPTH_AT_CENTER, 2 * sizeof(VkBool32), sizeof(VkBool32)}};
     VkSpecializationInfo spec{3, entries, sizeof values, values};
     auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
     ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
@@ -505,7 +512,8 @@ struct VulkanTracer::Impl {
       return stats;
     }
     const VulkanDeviceInfo& info = context.info();
-    std::uint32_t groupsX = (dispatchW + 7) / 8, groupsY = (dispatchH + 7) / 8;
+    std::uint32_t groupsX = (dispatchW + gpu::VS_TRACE_GROUP_WIDTH - 1) / gpu::VS_TRACE_GROUP_WIDTH;
+    std::uint32_t groupsY = (dispatchH + gpu::VS_TRACE_GROUP_HEIGHT - 1) / gpu::VS_TRACE_GROUP_HEIGHT;
     auto layerCount = static_cast<std::uint32_t>(views.size());
     if (groupsX > info.maxWorkGroupCount[0] || groupsY > info.maxWorkGroupCount[1])
       throwRuntime("trace of " + std::to_string(dispatchW) + "x" + std::to_string(dispatchH) +
@@ -555,10 +563,12 @@ struct VulkanTracer::Impl {
     // Each view's pipeline: the depth point is a specialization constant, so the other one's code is not run.
     std::vector<VkPipeline> viewPipelines(layerCount);
     for (std::uint32_t i = 0; i < layerCount; ++i)
-      viewPipelines[i] = variant(useSplit, boxTableUploaded, views[i].info.w == gpu::VS_DEPTH_POINT_VOXEL_CENTER);
+      viewPipelines[i] = variant(TracePipelineOptions{.splitBindings = useSplit,
+                                                      .boxTable = boxTableUploaded,
+                                                      .depthAtCenter = views[i].info.w == gpu::VS_DEPTH_POINT_VOXEL_CENTER});
     TracePush push{};
     push.nodeCount = nodeCount;
-    for (int a = 0; a < kSplitArrayCount; ++a) push.shifts[a] = split[a].shift;
+    for (int a = 0; a < kSplitArrayCount; ++a) pushShifts(push)[a] = split[a].shift;
 
     context.submitAndWait([&](VkCommandBuffer cmd) {
       // Earlier uploads, host writes of the views, and the previous readback all precede this dispatch.
@@ -578,7 +588,8 @@ struct VulkanTracer::Impl {
       // as on lavapipe; on other devices neighbouring dispatches may overlap a little).
       for (std::uint32_t i = 0; i < layerCount; ++i) {
         const glm::ivec4& r = views[i].rect;
-        std::uint32_t gx = (std::uint32_t(r.z - r.x) + 7) / 8, gy = (std::uint32_t(r.w - r.y) + 7) / 8;
+        std::uint32_t gx = (std::uint32_t(r.z - r.x) + gpu::VS_TRACE_GROUP_WIDTH - 1) / gpu::VS_TRACE_GROUP_WIDTH;
+        std::uint32_t gy = (std::uint32_t(r.w - r.y) + gpu::VS_TRACE_GROUP_HEIGHT - 1) / gpu::VS_TRACE_GROUP_HEIGHT;
         if (gx > 0 && gy > 0) {
           if (viewPipelines[i] != bound) {
             bound = viewPipelines[i];

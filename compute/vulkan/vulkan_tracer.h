@@ -13,6 +13,7 @@
 
 #include "compute/cpu/cpu_tracer.h"
 #include "compute/scene_data.h"
+#include "compute/shared/trace_interface.h"
 #include "compute/vulkan/vulkan_context.h"
 
 namespace vs {
@@ -54,9 +55,9 @@ struct SceneArrays {
 
 // The arrays the shader may split over several bindings, in binding order.
 enum class SplitArray { RegionTable = 0, Regions, Sectors, Bricks, Occupancy };
-inline constexpr int kSplitArrayCount = 5;
-// Bindings per split array in the shader (VS_MAX_CHUNKS in compute/shaders/shadow_trace.comp).
-inline constexpr int kMaxBuffersPerArray = 4;
+inline constexpr int kSplitArrayCount = int(gpu::VS_SPLIT_ARRAY_COUNT);
+// Bindings per split array in the shader (compute/shared/trace_interface.h).
+inline constexpr int kMaxBuffersPerArray = gpu::VS_MAX_CHUNKS;
 
 struct TraceStats {
   std::uint64_t rays = 0;      // texels traced (sum of the views' rectangle areas)
