@@ -645,8 +645,6 @@ struct SingleRay {
 // vsObjectWalkBegin), into rays[i]; walks[i] says which rays begin a walk (the others miss).
 void setupBatch(gpu::SceneArrays& arrays, const SingleInstance& one, const gpu::TraceView& view, const int* xs,
                 const int* ys, SingleRay* rays, bool* walks) {
-  const gpu::BvhNode& node = arrays.nodes[0];
-  const gpu::InstanceRecord& inst = arrays.instances[one.instance];
   for (int i = 0; i < kLanes; ++i) {
     SingleRay& r = rays[i];
     walks[i] = false;
@@ -654,14 +652,10 @@ void setupBatch(gpu::SceneArrays& arrays, const SingleInstance& one, const gpu::
     r.tBase = 0.0f;
     if (!arrays.vsRayIsFinite(r.ray)) continue;
     const tile::WorldRay& ray = r.ray;
-    glm::vec3 o = arrays.vsCullOrigin(ray);
-    glm::vec3 pad(arrays.vsCullPad(ray));
-    if (arrays.vsBoxEntry(node.boundsMin - pad, node.boundsMax + pad, o, ray.d, ray.tMin, ray.tMax) ==
-            gpu::VS_T_INFINITY ||
-        arrays.vsBoxEntry(glm::vec3(inst.boundsMin) - pad, glm::vec3(inst.boundsMax) + pad, o, ray.d, ray.tMin,
-                          ray.tMax) == gpu::VS_T_INFINITY)
-      continue;
-    r.tBase = arrays.vsInstanceBaseT(ray, one.instance);
+    // The one leaf's box is the instance's: one test says whether the ray enters it.
+    const float entry = arrays.vsInstanceEntry(ray, one.instance);
+    if (entry == gpu::VS_T_INFINITY) continue;
+    r.tBase = arrays.vsBaseT(ray, entry);
     glm::vec3 lo, ld;
     arrays.vsInstanceRay(ray, one.instance, r.tBase, lo, ld);
     gpu::SceneArrays::ObjectWalk w;

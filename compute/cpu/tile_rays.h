@@ -62,10 +62,7 @@ inline bool collectCandidates(gpu::SceneArrays& arrays, RayState& r) {
   std::uint32_t node = 0u, entry = 0u, entryEnd = 0u;
   while (arrays.vsNextLeafEntry(r.cullOrigin, ray.d, r.cullPad, ray.tMin, ray.tMax, node, entry, entryEnd)) {
     std::uint32_t instance = arrays.instanceIndices[entry++];
-    const gpu::InstanceRecord& rec = arrays.instances[instance];
-    glm::vec3 pad(r.cullPad);
-    float t = arrays.vsBoxEntry(glm::vec3(rec.boundsMin) - pad, glm::vec3(rec.boundsMax) + pad, r.cullOrigin, ray.d,
-                                ray.tMin, ray.tMax);
+    float t = arrays.vsInstanceEntry(ray, instance);
     if (t == gpu::VS_T_INFINITY) continue;
     if (r.candidateCount == kMaxCandidates) return false;
     r.candidates[r.candidateCount++] = {t, instance};
@@ -82,7 +79,7 @@ inline bool beginNextWalk(gpu::SceneArrays& arrays, RayState& r) {
     const Candidate& c = r.candidates[r.nextCandidate++];
     if (c.entry > r.tBest) return false;  // sorted by entry: no later box starts before the best hit
     const gpu::InstanceRecord& rec = arrays.instances[c.instance];
-    float tBase = arrays.vsInstanceBaseT(r.ray, c.instance);
+    float tBase = arrays.vsBaseT(r.ray, c.entry);  // c.entry is vsInstanceEntry
     glm::vec3 lo, ld;
     arrays.vsInstanceRay(r.ray, c.instance, tBase, lo, ld);
     if (arrays.vsObjectWalkBegin(rec.info.x, lo, ld, arrays.vsLocalT(r.ray.tMin, tBase),

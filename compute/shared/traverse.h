@@ -481,19 +481,24 @@ void vsTwoSum(vec3 a, vec3 b, VS_OUT(vec3) s, VS_OUT(vec3) e) {
   e = err;
 }
 
-// The t at which a ray's walk through an instance is re-based: its entry into the instance's world box (grown
-// by vsCullPad), or tMin when it starts inside, cut toward zero to 16 significant bits. The cut moves the
-// base back by less than 2^-15 of t (a few hundred voxels at the farthest light limits::kMaxRayVoxels allows),
-// and keeps exact inputs exact: a ray with short coordinates gets a short re-based origin and the very t it
-// got before re-basing. Depends on the ray and the instance alone, never on a backend's state.
-float vsInstanceBaseT(WorldRay ray, uint instanceIndex) {
+// Where a ray enters an instance's world box grown by vsCullPad, or VS_T_INFINITY when it misses it.
+float vsInstanceEntry(WorldRay ray, uint instanceIndex) {
   float pad = vsCullPad(ray);
-  float entry = vsBoxEntry(VS_READ_INSTANCE_BOUNDS_MIN(instanceIndex) - vec3(pad),
-                           VS_READ_INSTANCE_BOUNDS_MAX(instanceIndex) + vec3(pad), vsCullOrigin(ray), ray.d,
-                           ray.tMin, ray.tMax);
+  return vsBoxEntry(VS_READ_INSTANCE_BOUNDS_MIN(instanceIndex) - vec3(pad),
+                    VS_READ_INSTANCE_BOUNDS_MAX(instanceIndex) + vec3(pad), vsCullOrigin(ray), ray.d, ray.tMin,
+                    ray.tMax);
+}
+
+// The t at which a ray's walk through an instance is re-based, from its vsInstanceEntry: the entry, or tMin when
+// it misses the box, cut toward zero to 16 significant bits. The cut moves the base back by less than 2^-15 of
+// t (at most 2^11 voxels within limits::kMaxRayVoxels), and keeps exact inputs exact: a ray with short
+// coordinates gets a short re-based origin and the very t it got before re-basing. It depends on the ray and
+// the instance alone, never on a backend's state.
+float vsBaseT(WorldRay ray, float entry) {
   float t = entry == VS_T_INFINITY ? ray.tMin : entry;
   return uintBitsToFloat(floatBitsToUint(t) & 0xffffff00u);
 }
+float vsInstanceBaseT(WorldRay ray, uint instanceIndex) { return vsBaseT(ray, vsInstanceEntry(ray, instanceIndex)); }
 
 // The ray's point at tBase relative to `anchor`, rounded once: d * tBase is split into four exact products
 // (each factor cut into 12-bit halves), and the eye, the start and those products are summed with every
