@@ -3,8 +3,9 @@
 // on a real scene, the refusal of an over-limit scene and partial re-traces.
 //
 // Both sides run the same portable traversal (compute/shared/traverse.h) with `precise` arithmetic in GLSL and
-// -ffp-contract=off in C++, so every texel must be bit-identical (memcmp); the largest depth difference is
-// printed as well, to show how far a mismatch is. By default the shader walks objects through the box table, the CPU
+// -ffp-contract=off in C++, so every texel must be bit-identical (memcmp), in the normal build and in
+// vulkan_trace_native_test, built with -march=native (FMA available); the largest depth difference is printed
+// as well, to show how far a mismatch is. By default the shader walks objects through the box table, the CPU
 // reference through the brickmap hierarchy: the canonical voxel order makes them agree bit for bit, and the
 // shader's hierarchy walk is checked too (HierarchyWalkMatchesCpu).
 #include <algorithm>
