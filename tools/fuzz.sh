@@ -63,11 +63,12 @@ for name in "${names[@]}"; do
   done
   flags=(-timeout=20 -rss_limit_mb=4096 -print_final_stats=1 -artifact_prefix="$work/artifacts/")
   [ -f "$root/tests/fuzz/$name.dict" ] && flags+=(-dict="$root/tests/fuzz/$name.dict")
-  # Megabyte .vdb files would make each execution slow; inputs up to 64 KiB reach the header, metadata,
-  # transforms and topology, where hostile files do their damage. Longer seeds are left out, not cut to
-  # length (libFuzzer would cut them): the small assets cover the same code paths.
+  # Megabyte .vdb and .vox files would make each execution slow; inputs up to 64 KiB reach the header,
+  # metadata, transforms, topology and chunks, where hostile files do their damage. Longer seeds are left
+  # out, not cut to length (libFuzzer would cut them): the generated seeds (tests/fuzz/seeds/, written by
+  # make_fuzz_seeds) and the small assets cover the same code paths; ctest replays the large assets.
   max_len=""
-  [ "$name" = vdb ] && max_len=65536
+  case "$name" in vdb | vox) max_len=65536 ;; esac
   if [ -n "$max_len" ]; then
     rm -rf "$work/seeds"
     mkdir -p "$work/seeds"

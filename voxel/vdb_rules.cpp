@@ -85,10 +85,28 @@ class MemoryBuf : public std::streambuf {
 // Where a reading stands, for the error message when the reader dies: written by the reading process into
 // memory shared with its parent.
 struct ReadProgress {
-  int grid = -1;        // index (file order) of the grid being read; -1: header and file metadata
-  char name[128] = {};  // its name, cut to fit
-  int done = 0;         // 1 once every grid was read or the reader refused the file with an exception
+  int grid = -1;           // index (file order) of the grid being read; -1: header and file metadata
+  char name[128] = {};     // its name, cut to fit
+  int done = 0;            // 1: every grid was read; 2: the reader refused the file with an exception
+  char refusal[8192] = {}; // done == 2: the error message, cut to fit
 };
+
+// The error message for the exception being handled (called inside a catch block).
+std::string refusalOf(const std::string& path) {
+  try {
+    throw;
+  } catch (const openvdb::Exception& e) {
+    return path + ": not a readable VDB file (" + printable(e.what()) + ")";
+  } catch (const std::bad_alloc&) {
+    return path + ": damaged VDB file (asks for more memory than is available)";
+  } catch (const std::ios_base::failure&) {
+    return path + ": truncated or damaged VDB file (it ends before the data it announces)";
+  } catch (const std::exception& e) {
+    return path + ": not a readable VDB file (" + printable(e.what()) + ")";
+  } catch (...) {
+    return path + ": not a readable VDB file";
+  }
+}
 
 // The reading io::Stream(is, delayLoad=false) does (OpenVDB 10, Stream.cc), step by step, so that the grid
 // being read can be reported. io::Stream reads grids in file order (io::File lists them sorted by name).
@@ -96,7 +114,10 @@ struct ReadProgress {
 // whole input into a temporary file (openvdb_temp_*) that it does not remove when reading fails.
 class GridReader : public openvdb::io::Archive {
  public:
-  openvdb::GridPtrVec read(std::istream& is, ReadProgress* progress) {
+  // `keep` (the checking child's): every grid is also kept there from before it is read, so that neither
+  // an exception nor the end of reading destroys a tree (Tree::clear runs a TBB parallel_for, which would
+  // start worker threads in the child).
+  openvdb::GridPtrVec read(std::istream& is, ReadProgress* progress, openvdb::GridPtrVec* keep) {
     readHeader(is);
     openvdb::io::StreamMetadata::Ptr streamMetadata(new openvdb::io::StreamMetadata);
     openvdb::io::setStreamMetadataPtr(is, streamMetadata, /*transfer=*/false);
@@ -121,6 +142,7 @@ class GridReader : public openvdb::io::Archive {
                                               << "\" because grid type " << gd.gridType() << " is unknown");
       openvdb::GridBase::Ptr grid = openvdb::GridBase::createGrid(gd.gridType());
       if (grid) grid->setSaveFloatAsHalf(gd.saveFloatAsHalf());
+      if (keep) keep->push_back(grid);
       Archive::readGrid(grid, gd, is);
       descriptors.push_back(gd);
       grids.push_back(grid);
@@ -134,14 +156,15 @@ class GridReader : public openvdb::io::Archive {
 };
 
 // Reads the grids from the bytes; OpenVDB's exceptions (and the stream's, see below) pass through.
-openvdb::GridPtrVec parseGrids(const std::string& bytes, ReadProgress* progress) {
+openvdb::GridPtrVec parseGrids(const std::string& bytes, ReadProgress* progress = nullptr,
+                               openvdb::GridPtrVec* keep = nullptr) {
   MemoryBuf buf(bytes.data(), bytes.size());
   std::istream in(&buf);
   // OpenVDB does not check every read: at the end of a truncated or lying file it would go on reading
   // nothing (looping for minutes over a count it read as garbage, or sizing a string from an unset length).
   // A stream that throws on the first failed read turns all of these into one error.
   in.exceptions(std::ios::failbit | std::ios::badbit);
-  return GridReader().read(in, progress);
+  return GridReader().read(in, progress, keep);
 }
 
 std::string signalName(int sig) {
@@ -170,7 +193,7 @@ namespace {
 
 // The child process: parses every grid, then ends without returning into the caller (no unwinding into
 // the parent's frames, no atexit handlers, no flushing of the parent's buffered output).
-[[noreturn]] void checkInChild(const std::string& bytes, ReadProgress* progress, pid_t parent) {
+[[noreturn]] void checkInChild(const std::string& bytes, const std::string& path, ReadProgress* progress, pid_t parent) {
   // Die with the parent; default actions for the signals the parent handles (its handlers remove the
   // parent's temporaries), none blocked, so that an interrupt of the process group ends the child too.
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);
@@ -189,18 +212,27 @@ namespace {
   }
   if (__sanitizer_set_report_fd) __sanitizer_set_report_fd(reinterpret_cast<void*>(std::intptr_t(2)));
   if (__sanitizer_set_death_callback) __sanitizer_set_death_callback(nullptr);
+  // Never freed: the child ends without destroying any grid (see GridReader::read).
+  auto* keep = new openvdb::GridPtrVec;
   try {
-    openvdb::GridPtrVec grids = parseGrids(bytes, progress);
-    (void)grids;
+    (void)parseGrids(bytes, progress, keep);
+    progress->done = 1;
   } catch (...) {
-    // Refused with an exception: the parent's own reading refuses it the same way, with the message.
+    // Refused with an exception: the parent throws the same message and need not read the file at all
+    // (OpenVDB leaks the nodes it read when it throws: in the child, they go with it).
+    try {
+      std::snprintf(progress->refusal, sizeof progress->refusal, "%s", refusalOf(path).c_str());
+    } catch (...) {
+      std::snprintf(progress->refusal, sizeof progress->refusal, "%s: not a readable VDB file", path.c_str());
+    }
+    progress->done = 2;
   }
-  progress->done = 1;
   ::_exit(0);
 }
 
 // Parses the bytes in a child process first; throws vs::Error(BadInput) naming the file and the grid being
-// read when the child dies (a crash inside OpenVDB on damaged data, or the kernel killing it for memory).
+// read when the child dies (a crash inside OpenVDB on damaged data, or the kernel killing it for memory),
+// and with the child's message when OpenVDB refused the file with an exception there.
 void checkInChildProcess(const std::string& bytes, const std::string& path) {
   void* shared = ::mmap(nullptr, sizeof(ReadProgress), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
   if (shared == MAP_FAILED) throwRuntime(path + ": cannot map memory to check the file (" + std::strerror(errno) + ")");
@@ -212,15 +244,19 @@ void checkInChildProcess(const std::string& bytes, const std::string& path) {
   const pid_t parent = ::getpid();
   const pid_t child = ::fork();
   if (child < 0) throwRuntime(path + ": cannot start a process to check the file (" + std::strerror(errno) + ")");
-  if (child == 0) checkInChild(bytes, progress, parent);
+  if (child == 0) checkInChild(bytes, path, progress, parent);
   int status = 0;
   pid_t waited;
   do waited = ::waitpid(child, &status, 0);
   while (waited < 0 && errno == EINTR);
   // waitpid fails (ECHILD) where SIGCHLD is ignored or another waiter reaped the child: the shared flag,
   // set by the child only after its reading ended normally, decides then.
-  const bool clean = progress->done == 1 && (waited < 0 || (WIFEXITED(status) && WEXITSTATUS(status) == 0));
-  if (clean) return;
+  const bool ended = waited < 0 || (WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  if (ended && progress->done == 1) return;
+  if (ended && progress->done == 2) {
+    progress->refusal[sizeof progress->refusal - 1] = 0;
+    throwBadInput(progress->refusal);
+  }
   std::string where = progress->grid < 0 ? std::string("the file header and metadata")
                                           : "grid " + std::to_string(progress->grid) + " '" + printable(progress->name) + "'";
   std::string how;
@@ -271,19 +307,11 @@ openvdb::GridPtrVec readVdbGrids(const std::string& path, bool checkInChild) {
   } catch (const std::bad_alloc&) {
     throwRuntime(path + ": too large to read into memory");
   }
+  if (checkInChild) checkInChildProcess(bytes, path);
   try {
-    if (checkInChild) checkInChildProcess(bytes, path);
-    return parseGrids(bytes, nullptr);
-  } catch (const vs::Error&) {
-    throw;
-  } catch (const openvdb::Exception& e) {
-    throwBadInput(path + ": not a readable VDB file (" + printable(e.what()) + ")");
-  } catch (const std::bad_alloc&) {
-    throwBadInput(path + ": damaged VDB file (asks for more memory than is available)");
-  } catch (const std::ios_base::failure&) {
-    throwBadInput(path + ": truncated or damaged VDB file (it ends before the data it announces)");
-  } catch (const std::exception& e) {
-    throwBadInput(path + ": not a readable VDB file (" + printable(e.what()) + ")");
+    return parseGrids(bytes);
+  } catch (...) {
+    throwBadInput(refusalOf(path));
   }
 }
 

@@ -22,8 +22,10 @@ struct LoadOptions {
   // .vdb files only. OpenVDB 10's reader does not check everything it reads: on some damaged files it
   // writes past a buffer (a compressed block longer than the values it is read into) and the process dies.
   // With this set, the file's bytes (read into memory once) are parsed first in a forked child process, and
-  // a child that dies becomes a vs::Error(BadInput) naming the file and grid; this process then parses the
-  // same bytes. The cost: one fork and a second parse of every grid (about as long again as OpenVDB's
+  // a child that dies becomes a vs::Error(BadInput) naming the file and grid. A file the child refuses
+  // with OpenVDB's exception is refused with the child's message (so the tree nodes OpenVDB leaks when it
+  // throws stay in the child); only a file the child read to its end is parsed again, from the same bytes,
+  // by this process. The cost: one fork and a second parse of every grid (about as long again as OpenVDB's
   // reading; the brickmap building that follows is not repeated), and the child's memory while it runs.
   // Turn it off only for files that are trusted (written by this process or a known tool).
   bool checkInChildProcess = true;
