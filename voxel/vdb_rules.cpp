@@ -601,7 +601,20 @@ glm::dmat4 brickToObjectOf(const openvdb::GridBase& g, const std::string& file) 
     throwBadInput(file + ": " + gridLabel(g) + " has a non-linear (" + t.mapType() +
                   ") transform; only linear transforms are supported");
   }
-  openvdb::Mat4d m = t.baseMap()->getAffineMap()->getMat4();
+  // A scale map with a zero (or nearly zero) scale is read without complaint, but turning it into an affine
+  // map throws from a place where OpenVDB cannot unwind (std::terminate): check the voxel size first.
+  const openvdb::Vec3d size = t.voxelSize();
+  for (int axis = 0; axis < 3; ++axis)
+    if (!(size[axis] >= limits::kMinVoxelSize && size[axis] <= limits::kMaxVoxelSize))
+      throwBadInput(file + ": " + gridLabel(g) + " has a voxel size of " + std::to_string(size[axis]) + " along axis " +
+                    std::to_string(axis) + "; the valid range is " + std::to_string(limits::kMinVoxelSize) + " to " +
+                    std::to_string(limits::kMaxVoxelSize));
+  openvdb::Mat4d m;
+  try {
+    m = t.baseMap()->getAffineMap()->getMat4();
+  } catch (const openvdb::Exception& e) {
+    throwBadInput(file + ": " + gridLabel(g) + " has a transform that is not invertible (" + printable(e.what()) + ")");
+  }
   // Voxel sizes outside the valid range would push the tracers' float arithmetic out of its exact range.
   for (int axis = 0; axis < 3; ++axis) {
     double len = std::sqrt(m(axis, 0) * m(axis, 0) + m(axis, 1) * m(axis, 1) + m(axis, 2) * m(axis, 2));
