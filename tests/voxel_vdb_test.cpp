@@ -397,6 +397,41 @@ TEST(VdbLoad, ReadingMakesNoTemporaryCopies) {
   EXPECT_EQ(left, std::vector<std::string>{}) << "temporary copies of damaged files were left behind";
 }
 
+// OpenVDB 10's reader itself overruns a heap buffer on this mutated file (io::bloscFromStream copies a
+// block length read from the file into the value buffer unchecked): the process would die inside OpenVDB.
+// The file is parsed in a child process first, whose death becomes a clear error; the CLI exits 2.
+TEST(VdbLoad, ReaderCrashInsideOpenVdbIsAClearError) {
+  const std::string file =
+      (fs::path(VOXSHADOW_SOURCE_DIR) / "tests/fuzz/regressions/vdb/crash-blosc-uncompressed-length.vdb").string();
+  ASSERT_TRUE(fs::is_regular_file(file)) << file;
+  const std::vector<std::string> mentions{file, "damaged VDB file", "grid 0 'voxel_fog_density'", "not loaded"};
+  expectBadInput([&] { vs::loadVdb(file); }, mentions);
+  expectBadInput([&] { vs::inspectVdb(file); }, mentions);
+  // The process that checked the file is gone and the next good file loads as before.
+  EXPECT_GT(vs::loadVdb((vs::test::sharedAssets() / "vdb" / "oiio_fog_sphere.vdb").string()).brickmap.solidCount(), 0u);
+  std::string out;
+  EXPECT_EQ(vs::test::runCli("info " + vs::test::quote(file), out), 2) << out;
+  EXPECT_TRUE(vs::test::contains(out, file + ": damaged VDB file")) << out;
+  EXPECT_FALSE(vs::test::contains(out, "[0]")) << "partial output: " << out;
+}
+
+// Without the checking process (trusted files) every asset loads to the same object as with it.
+TEST(VdbLoad, InProcessReadingMatchesCheckedReading) {
+  vs::LoadOptions trusted;
+  trusted.checkInChildProcess = false;
+  int compared = 0;
+  for (const auto& e : fs::directory_iterator(vs::test::sharedAssets() / "vdb")) {
+    if (!e.is_regular_file() || e.file_size() > 1000000) continue;
+    const vs::VoxelObject checked = vs::loadVdb(e.path().string());
+    const vs::VoxelObject direct = vs::loadVdb(e.path().string(), trusted);
+    EXPECT_EQ(checked.gridName, direct.gridName) << e.path();
+    EXPECT_EQ(checked.brickmap.solidCount(), direct.brickmap.solidCount()) << e.path();
+    EXPECT_EQ(checked.palette, direct.palette) << e.path();
+    ++compared;
+  }
+  EXPECT_GE(compared, 4);
+}
+
 // A .vdb cut short anywhere is refused, promptly: OpenVDB alone reads on past the end (a partial grid, a loop
 // over a garbage count, a string sized from an unset length).
 TEST(VdbLoad, TruncatedFilesAreRefused) {

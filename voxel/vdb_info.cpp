@@ -7,7 +7,7 @@
 namespace vs {
 
 std::vector<GridInfo> inspectVdb(const std::string& path, const LoadOptions& options) {
-  openvdb::GridPtrVec grids = readVdbGrids(path);
+  openvdb::GridPtrVec grids = readVdbGrids(path, options.checkInChildProcess);
   std::vector<GridInfo> out;
   for (std::size_t i = 0; i < grids.size(); ++i) {
     const openvdb::GridBase& g = *grids[i];

@@ -22,7 +22,7 @@ std::string gridList(const openvdb::GridPtrVec& grids) {
 }  // namespace
 
 VoxelObject loadVdb(const std::string& path, const LoadOptions& options) {
-  openvdb::GridPtrVec grids = readVdbGrids(path);
+  openvdb::GridPtrVec grids = readVdbGrids(path, options.checkInChildProcess);
   VoxelObject obj;
   obj.file = path;
   int chosen = -1;

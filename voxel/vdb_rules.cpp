@@ -3,17 +3,31 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <mutex>
 #include <unordered_map>
 
+#include <csignal>
+#include <cstdio>
+#include <istream>
+#include <new>
+#include <streambuf>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/mman.h>
+#include <sys/prctl.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <glm/gtc/matrix_transform.hpp>
-#include <fstream>
 
-#include <openvdb/io/Stream.h>
+#include <openvdb/io/Archive.h>
+#include <openvdb/io/GridDescriptor.h>
+#include <openvdb/io/io.h>
 #include <openvdb/util/logging.h>
 
 #include "voxel/error.h"
@@ -42,37 +56,262 @@ std::string printable(std::string s) {
 }
 }  // namespace
 
-openvdb::GridPtrVec readVdbGrids(const std::string& path) {
+namespace {
+
+// An input stream over bytes held in memory (read-only, seekable), so that a checking child process and the
+// loading process read the very same bytes.
+class MemoryBuf : public std::streambuf {
+ public:
+  MemoryBuf(const char* data, std::size_t size) {
+    char* p = const_cast<char*>(data);  // never written: the get area only
+    setg(p, p, p + size);
+  }
+
+ protected:
+  pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode which) override {
+    const off_type size = egptr() - eback();
+    if (!(which & std::ios_base::in) || off < -size || off > size) return pos_type(off_type(-1));
+    const off_type base = dir == std::ios_base::beg ? 0 : dir == std::ios_base::cur ? gptr() - eback() : size;
+    const off_type target = base + off;
+    if (target < 0 || target > size) return pos_type(off_type(-1));
+    setg(eback(), eback() + target, egptr());
+    return pos_type(target);
+  }
+  pos_type seekpos(pos_type pos, std::ios_base::openmode which) override {
+    return seekoff(off_type(pos), std::ios_base::beg, which);
+  }
+};
+
+// Where a reading stands, for the error message when the reader dies: written by the reading process into
+// memory shared with its parent.
+struct ReadProgress {
+  int grid = -1;           // index (file order) of the grid being read; -1: header and file metadata
+  char name[128] = {};     // its name, cut to fit
+  int done = 0;            // 1: every grid was read; 2: the reader refused the file with an exception
+  char refusal[8192] = {}; // done == 2: the error message, cut to fit
+};
+
+// The error message for the exception being handled (called inside a catch block).
+std::string refusalOf(const std::string& path) {
+  try {
+    throw;
+  } catch (const openvdb::Exception& e) {
+    return path + ": not a readable VDB file (" + printable(e.what()) + ")";
+  } catch (const std::bad_alloc&) {
+    return path + ": damaged VDB file (asks for more memory than is available)";
+  } catch (const std::ios_base::failure&) {
+    return path + ": truncated or damaged VDB file (it ends before the data it announces)";
+  } catch (const std::exception& e) {
+    return path + ": not a readable VDB file (" + printable(e.what()) + ")";
+  } catch (...) {
+    return path + ": not a readable VDB file";
+  }
+}
+
+// The reading io::Stream(is, delayLoad=false) does (OpenVDB 10, Stream.cc), step by step, so that the grid
+// being read can be reported. io::Stream reads grids in file order (io::File lists them sorted by name).
+// Without delayed loading every grid is read fully from the stream; with it, Stream would first copy the
+// whole input into a temporary file (openvdb_temp_*) that it does not remove when reading fails.
+class GridReader : public openvdb::io::Archive {
+ public:
+  // `keep` (the checking child's): every grid is also kept there from before it is read, so that neither
+  // an exception nor the end of reading destroys a tree (Tree::clear runs a TBB parallel_for, which would
+  // start worker threads in the child).
+  openvdb::GridPtrVec read(std::istream& is, ReadProgress* progress, openvdb::GridPtrVec* keep) {
+    readHeader(is);
+    openvdb::io::StreamMetadata::Ptr streamMetadata(new openvdb::io::StreamMetadata);
+    openvdb::io::setStreamMetadataPtr(is, streamMetadata, /*transfer=*/false);
+    openvdb::io::setVersion(is, libraryVersion(), fileVersion());
+    openvdb::io::setDataCompression(is, compression());
+    openvdb::MetaMap meta;
+    meta.readMeta(is);
+    const std::int32_t count = readGridCount(is);
+    openvdb::GridPtrVec grids;
+    std::vector<openvdb::io::GridDescriptor> descriptors;
+    NamedGridMap named;
+    for (std::int32_t i = 0; i < count; ++i) {
+      openvdb::io::GridDescriptor gd;
+      gd.read(is);
+      if (progress) {
+        const std::string name = openvdb::io::GridDescriptor::nameAsString(gd.uniqueName());
+        progress->grid = int(i);
+        std::snprintf(progress->name, sizeof progress->name, "%s", name.c_str());
+      }
+      if (!openvdb::GridBase::isRegistered(gd.gridType()))
+        OPENVDB_THROW(openvdb::TypeError, "can't read grid \"" << openvdb::io::GridDescriptor::nameAsString(gd.uniqueName())
+                                              << "\" because grid type " << gd.gridType() << " is unknown");
+      openvdb::GridBase::Ptr grid = openvdb::GridBase::createGrid(gd.gridType());
+      if (grid) grid->setSaveFloatAsHalf(gd.saveFloatAsHalf());
+      if (keep) keep->push_back(grid);
+      Archive::readGrid(grid, gd, is);
+      descriptors.push_back(gd);
+      grids.push_back(grid);
+      named[gd.uniqueName()] = grid;
+    }
+    // Grids that share a tree with another (instances) get it now.
+    for (const openvdb::io::GridDescriptor& gd : descriptors) connectInstance(gd, named);
+    if (progress) progress->grid = count;
+    return grids;
+  }
+};
+
+// Reads the grids from the bytes; OpenVDB's exceptions (and the stream's, see below) pass through.
+openvdb::GridPtrVec parseGrids(const std::string& bytes, ReadProgress* progress = nullptr,
+                               openvdb::GridPtrVec* keep = nullptr) {
+  MemoryBuf buf(bytes.data(), bytes.size());
+  std::istream in(&buf);
+  // OpenVDB does not check every read: at the end of a truncated or lying file it would go on reading
+  // nothing (looping for minutes over a count it read as garbage, or sizing a string from an unset length).
+  // A stream that throws on the first failed read turns all of these into one error.
+  in.exceptions(std::ios::failbit | std::ios::badbit);
+  return GridReader().read(in, progress, keep);
+}
+
+std::string signalName(int sig) {
+  switch (sig) {
+    case SIGSEGV: return "SIGSEGV";
+    case SIGBUS: return "SIGBUS";
+    case SIGABRT: return "SIGABRT";
+    case SIGFPE: return "SIGFPE";
+    case SIGILL: return "SIGILL";
+    case SIGKILL: return "SIGKILL";
+    default: return "signal " + std::to_string(sig);
+  }
+}
+
+}  // namespace
+
+}  // namespace vs
+
+// Sanitizer run-time hooks, present only in sanitized builds (weak: null otherwise).
+extern "C" void __sanitizer_set_report_fd(void* fd) __attribute__((weak));
+extern "C" void __sanitizer_set_death_callback(void (*callback)(void)) __attribute__((weak));
+
+namespace vs {
+
+namespace {
+
+// The child process: parses every grid, then ends without returning into the caller (no unwinding into
+// the parent's frames, no atexit handlers, no flushing of the parent's buffered output).
+[[noreturn]] void checkInChild(const std::string& bytes, const std::string& path, ReadProgress* progress, pid_t parent) {
+  // Die with the parent; default actions for the signals the parent handles (its handlers remove the
+  // parent's temporaries), none blocked, so that an interrupt of the process group ends the child too.
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (::getppid() != parent) ::_exit(3);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGALRM})
+    std::signal(sig, SIG_DFL);
+  sigset_t none;
+  sigemptyset(&none);
+  ::sigprocmask(SIG_SETMASK, &none, nullptr);
+  // Quiet: OpenVDB's warnings come again from the parent's own reading, and the C library's or a
+  // sanitizer's report of the reader's failure would only repeat the error the parent gives.
+  int devnull = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
+  if (devnull >= 0) {
+    ::dup2(devnull, 1);
+    ::dup2(devnull, 2);
+  }
+  if (__sanitizer_set_report_fd) __sanitizer_set_report_fd(reinterpret_cast<void*>(std::intptr_t(2)));
+  if (__sanitizer_set_death_callback) __sanitizer_set_death_callback(nullptr);
+  // Never freed: the child ends without destroying any grid (see GridReader::read).
+  auto* keep = new openvdb::GridPtrVec;
+  try {
+    (void)parseGrids(bytes, progress, keep);
+    progress->done = 1;
+  } catch (...) {
+    // Refused with an exception: the parent throws the same message and need not read the file at all
+    // (OpenVDB leaks the nodes it read when it throws: in the child, they go with it).
+    try {
+      std::snprintf(progress->refusal, sizeof progress->refusal, "%s", refusalOf(path).c_str());
+    } catch (...) {
+      std::snprintf(progress->refusal, sizeof progress->refusal, "%s: not a readable VDB file", path.c_str());
+    }
+    progress->done = 2;
+  }
+  ::_exit(0);
+}
+
+// Parses the bytes in a child process first; throws vs::Error(BadInput) naming the file and the grid being
+// read when the child dies (a crash inside OpenVDB on damaged data, or the kernel killing it for memory),
+// and with the child's message when OpenVDB refused the file with an exception there.
+void checkInChildProcess(const std::string& bytes, const std::string& path) {
+  void* shared = ::mmap(nullptr, sizeof(ReadProgress), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+  if (shared == MAP_FAILED) throwRuntime(path + ": cannot map memory to check the file (" + std::strerror(errno) + ")");
+  ReadProgress* progress = new (shared) ReadProgress;
+  struct Unmap {
+    void* p;
+    ~Unmap() { ::munmap(p, sizeof(ReadProgress)); }
+  } unmap{shared};
+  const pid_t parent = ::getpid();
+  const pid_t child = ::fork();
+  if (child < 0) throwRuntime(path + ": cannot start a process to check the file (" + std::strerror(errno) + ")");
+  if (child == 0) checkInChild(bytes, path, progress, parent);
+  int status = 0;
+  pid_t waited;
+  do waited = ::waitpid(child, &status, 0);
+  while (waited < 0 && errno == EINTR);
+  // waitpid fails (ECHILD) where SIGCHLD is ignored or another waiter reaped the child: the shared flag,
+  // set by the child only after its reading ended normally, decides then.
+  const bool ended = waited < 0 || (WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  if (ended && progress->done == 1) return;
+  if (ended && progress->done == 2) {
+    progress->refusal[sizeof progress->refusal - 1] = 0;
+    throwBadInput(progress->refusal);
+  }
+  std::string where = progress->grid < 0 ? std::string("the file header and metadata")
+                                          : "grid " + std::to_string(progress->grid) + " '" + printable(progress->name) + "'";
+  std::string how;
+  if (waited < 0) how = "it ended abnormally";
+  else if (WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) how = "killed by SIGKILL, out of memory?";
+  else if (WIFSIGNALED(status)) how = "it crashed with " + signalName(WTERMSIG(status));
+  else how = "it exited with status " + std::to_string(WEXITSTATUS(status));
+  throwBadInput(path + ": damaged VDB file: OpenVDB's reader failed on " + where + " (" + how +
+                " in a checking process); the file was not loaded");
+}
+
+std::string readWholeFile(const std::string& path) {
+  int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) throwBadInput(path + ": cannot open for reading (" + std::strerror(errno) + ")");
+  struct Close {
+    int fd;
+    ~Close() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) throwBadInput(path + ": is not a regular file (a FIFO or a device)");
+  std::string bytes;
+  bytes.resize(std::size_t(st.st_size) + 1);  // one more, to see the end without a second pass
+  std::size_t got = 0;
+  for (;;) {
+    if (got == bytes.size()) bytes.resize(bytes.size() + (bytes.size() >> 1) + 4096);  // it grew
+    const ssize_t n = ::read(fd, bytes.data() + got, bytes.size() - got);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throwBadInput(path + ": cannot read (" + std::strerror(errno) + ")");
+    if (n == 0) break;
+    got += std::size_t(n);
+  }
+  bytes.resize(got);
+  return bytes;
+}
+
+}  // namespace
+
+openvdb::GridPtrVec readVdbGrids(const std::string& path, bool checkInChild) {
   ensureOpenVdbInitialized();
   std::error_code ec;
   std::filesystem::file_status st = std::filesystem::status(path, ec);
   if (!std::filesystem::exists(st)) throwBadInput(path + ": no such file");
   if (std::filesystem::is_directory(st)) throwBadInput(path + ": is a directory, not a .vdb file");
   if (!std::filesystem::is_regular_file(st)) throwBadInput(path + ": is not a regular file (a FIFO or a device)");
+  std::string bytes;
   try {
-    // io::Stream reads grids in file order (io::File lists them sorted by name). Without delayed loading
-    // it reads every grid fully from the stream; with it, Stream first copies the whole input into a
-    // temporary file (openvdb_temp_*) that it does not remove when reading fails.
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throwBadInput(path + ": cannot open for reading");
-    // OpenVDB does not check every read: at the end of a truncated or lying file it would go on reading
-    // nothing (looping for minutes over a count it read as garbage, or sizing a string from an unset length).
-    // A stream that throws on the first failed read turns all of these into one error.
-    in.exceptions(std::ios::failbit | std::ios::badbit);
-    openvdb::io::Stream stream(in, /*delayLoad=*/false);
-    openvdb::GridPtrVecPtr grids = stream.getGrids();
-    if (!grids) throwBadInput(path + ": no grids could be read");
-    return *grids;
-  } catch (const vs::Error&) {
-    throw;
-  } catch (const openvdb::Exception& e) {
-    throwBadInput(path + ": not a readable VDB file (" + printable(e.what()) + ")");
+    bytes = readWholeFile(path);
   } catch (const std::bad_alloc&) {
-    throwBadInput(path + ": damaged VDB file (asks for more memory than is available)");
-  } catch (const std::ios_base::failure&) {
-    throwBadInput(path + ": truncated or damaged VDB file (it ends before the data it announces)");
-  } catch (const std::exception& e) {
-    throwBadInput(path + ": not a readable VDB file (" + printable(e.what()) + ")");
+    throwRuntime(path + ": too large to read into memory");
+  }
+  if (checkInChild) checkInChildProcess(bytes, path);
+  try {
+    return parseGrids(bytes);
+  } catch (...) {
+    throwBadInput(refusalOf(path));
   }
 }
 
@@ -362,7 +601,20 @@ glm::dmat4 brickToObjectOf(const openvdb::GridBase& g, const std::string& file) 
     throwBadInput(file + ": " + gridLabel(g) + " has a non-linear (" + t.mapType() +
                   ") transform; only linear transforms are supported");
   }
-  openvdb::Mat4d m = t.baseMap()->getAffineMap()->getMat4();
+  // A scale map with a zero (or nearly zero) scale is read without complaint, but turning it into an affine
+  // map throws from a place where OpenVDB cannot unwind (std::terminate): check the voxel size first.
+  const openvdb::Vec3d size = t.voxelSize();
+  for (int axis = 0; axis < 3; ++axis)
+    if (!(size[axis] >= limits::kMinVoxelSize && size[axis] <= limits::kMaxVoxelSize))
+      throwBadInput(file + ": " + gridLabel(g) + " has a voxel size of " + std::to_string(size[axis]) + " along axis " +
+                    std::to_string(axis) + "; the valid range is " + std::to_string(limits::kMinVoxelSize) + " to " +
+                    std::to_string(limits::kMaxVoxelSize));
+  openvdb::Mat4d m;
+  try {
+    m = t.baseMap()->getAffineMap()->getMat4();
+  } catch (const openvdb::Exception& e) {
+    throwBadInput(file + ": " + gridLabel(g) + " has a transform that is not invertible (" + printable(e.what()) + ")");
+  }
   // Voxel sizes outside the valid range would push the tracers' float arithmetic out of its exact range.
   for (int axis = 0; axis < 3; ++axis) {
     double len = std::sqrt(m(axis, 0) * m(axis, 0) + m(axis, 1) * m(axis, 1) + m(axis, 2) * m(axis, 2));

@@ -22,8 +22,12 @@ inline constexpr std::uint64_t kMaxLoadVoxels = std::uint64_t(1) << 26;
 void ensureOpenVdbInitialized();
 
 // Reads every grid of a .vdb file, in file order. Throws vs::Error(BadInput) naming the file when it is
-// missing, unreadable, not a VDB or damaged (OpenVDB's exceptions are caught and rethrown).
-openvdb::GridPtrVec readVdbGrids(const std::string& path);
+// missing, unreadable, not a VDB or damaged (OpenVDB's exceptions are caught and rethrown). The file is read
+// into memory once; with `checkInChild` (LoadOptions::checkInChildProcess) a forked child parses those bytes
+// first: a child that dies (OpenVDB overruns a buffer on some damaged files) becomes an error naming the
+// file and the grid being read, one that OpenVDB refused with an exception gives its message, and only a
+// file the child read to its end is parsed by this process, from the same bytes.
+openvdb::GridPtrVec readVdbGrids(const std::string& path, bool checkInChild = true);
 
 // The human-readable solid rule for a grid, or an empty string when its type has none.
 std::string solidRuleOf(const openvdb::GridBase& grid);

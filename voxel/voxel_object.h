@@ -19,6 +19,16 @@ struct LoadOptions {
   std::string grid;
   float densityThreshold = 0.0f;       // fog and other scalar float grids: solid where value > this
   glm::vec3 color{0.8f, 0.8f, 0.8f};  // default colour (palette entry 1) for grids without their own
+  // .vdb files only. OpenVDB 10's reader does not check everything it reads: on some damaged files it
+  // writes past a buffer (a compressed block longer than the values it is read into) and the process dies.
+  // With this set, the file's bytes (read into memory once) are parsed first in a forked child process, and
+  // a child that dies becomes a vs::Error(BadInput) naming the file and grid. A file the child refuses
+  // with OpenVDB's exception is refused with the child's message (so the tree nodes OpenVDB leaks when it
+  // throws stay in the child); only a file the child read to its end is parsed again, from the same bytes,
+  // by this process. The cost: one fork and a second parse of every grid (about as long again as OpenVDB's
+  // reading; the brickmap building that follows is not repeated), and the child's memory while it runs.
+  // Turn it off only for files that are trusted (written by this process or a known tool).
+  bool checkInChildProcess = true;
 };
 
 struct VoxelObject {
@@ -39,7 +49,8 @@ struct VoxelObject {
 // Loads one grid of a .vdb file and builds its brickmap under the solid rules of DESIGN.md §3.
 // Preconditions: none on the file; every failure is a vs::Error naming the file (and grid):
 // missing/unreadable file, not a VDB, truncated, unknown grid name or index, grid without a solid rule,
-// non-linear (frustum) transform, bounds too large for the brickmap. An empty grid loads as an empty object.
+// non-linear (frustum) transform, bounds too large for the brickmap, and (see checkInChildProcess) damaged
+// data on which OpenVDB's reader crashes. An empty grid loads as an empty object.
 VoxelObject loadVdb(const std::string& path, const LoadOptions& options = {});
 
 }  // namespace vs

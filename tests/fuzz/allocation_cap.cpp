@@ -11,9 +11,19 @@
 
 namespace {
 
-constexpr std::size_t kCap = std::size_t(1) << 30;  // 1 GiB in one request
+// 1 GiB in one request, or VOXSHADOW_FUZZ_ALLOCATION_CAP_MB. tools/fuzz.sh lowers it for the .vdb target:
+// a damaged length field makes OpenVDB size a string or array from it and fill it before the read fails,
+// and filling a gigabyte took most of each execution's time.
+std::size_t cap() noexcept {
+  static const std::size_t value = [] {
+    const char* env = std::getenv("VOXSHADOW_FUZZ_ALLOCATION_CAP_MB");
+    const long mb = env ? std::strtol(env, nullptr, 10) : 0;
+    return mb > 0 && mb <= 1024 ? std::size_t(mb) << 20 : std::size_t(1) << 30;
+  }();
+  return value;
+}
 
-void* allocate(std::size_t n) noexcept { return n > kCap ? nullptr : std::malloc(n ? n : 1); }
+void* allocate(std::size_t n) noexcept { return n > cap() ? nullptr : std::malloc(n ? n : 1); }
 
 }  // namespace
 
