@@ -87,16 +87,18 @@ SceneData SceneData::build(std::span<const Brickmap* const> brickmaps, std::span
     rec.voxelMin = glm::ivec4(bounds.empty() ? glm::ivec3(0) : bounds.min, 0);
     rec.voxelMax = glm::ivec4(bounds.empty() ? glm::ivec3(0) : bounds.max, 0);
     rec.bases = glm::uvec4(scene.regionTable.size(), scene.regions.size(), scene.sectors.size(), scene.bricks.size());
-    rec.bases2 = glm::uvec4(scene.occupancy.size(), 0u, 0u, 0u);
+    rec.bases2 = glm::uvec4(scene.occupancy.size(), scene.payload.size(), 0u, 0u);
     scene.regionTable.insert(scene.regionTable.end(), bm->regionTable().begin(), bm->regionTable().end());
     scene.regions.insert(scene.regions.end(), bm->regions().begin(), bm->regions().end());
     scene.sectors.insert(scene.sectors.end(), bm->sectors().begin(), bm->sectors().end());
     scene.bricks.insert(scene.bricks.end(), bm->bricks().begin(), bm->bricks().end());
     scene.occupancy.insert(scene.occupancy.end(), bm->occupancyWords().begin(), bm->occupancyWords().end());
+    scene.payload.insert(scene.payload.end(), bm->payloadWords().begin(), bm->payloadWords().end());
     scene.objects.push_back(rec);
   }
   // 32-bit indices address every array on both sides.
-  if (scene.occupancy.size() > 0xffffffffull || scene.bricks.size() > 0xffffffffull) {
+  if (scene.occupancy.size() > 0xffffffffull || scene.bricks.size() > 0xffffffffull ||
+      scene.payload.size() > 0xffffffffull) {
     throwBadInput("scene: brickmap arrays exceed 2^32 entries");
   }
   scene.instances.reserve(instances.size());

@@ -9,6 +9,7 @@
 #include <glm/glm.hpp>
 
 #include "bvh/bvh.h"
+#include "compute/shared/trace_rays.h"
 #include "compute/shared/trace_view.h"
 #include "voxel/brickmap.h"
 
@@ -29,6 +30,7 @@ struct SceneData {
   std::vector<gpu::Sector> sectors;
   std::vector<gpu::Brick> bricks;
   std::vector<std::uint32_t> occupancy;
+  std::vector<std::uint32_t> payload;  // palette bytes of the bricks with more than one material
   std::vector<gpu::ObjectRecord> objects;
   std::vector<gpu::InstanceRecord> instances;
   std::vector<Aabb> instanceBounds;  // world boxes, the BVH's input

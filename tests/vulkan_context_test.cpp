@@ -28,6 +28,7 @@ struct TinyScene {
   std::vector<vs::gpu::Sector> sectors;
   std::vector<vs::gpu::Brick> bricks;
   std::vector<std::uint32_t> occupancy;
+  std::vector<std::uint32_t> payload;  // empty: its one brick has a uniform material
   std::vector<vs::gpu::ObjectRecord> objects;
   std::vector<vs::gpu::InstanceRecord> instances;
   std::vector<vs::gpu::BvhNode> nodes;
@@ -35,7 +36,8 @@ struct TinyScene {
   std::vector<std::uint32_t> nodeEscapes{1};  // one leaf: its subtree ends at node 1
 
   vs::SceneArrays arrays() const {
-    return {regionTable, regions, sectors, bricks, occupancy, objects, instances, nodes, instanceIndices, nodeEscapes};
+    return {regionTable, regions,   sectors,         bricks,     occupancy, payload,
+            objects,     instances, nodes,           instanceIndices, nodeEscapes};
   }
 };
 

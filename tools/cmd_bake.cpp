@@ -3,8 +3,7 @@
 #include <chrono>
 #include <cstdio>
 
-#include "compute/cpu/cpu_tracer.h"
-#include "compute/vulkan/vulkan_tracer.h"
+#include "compute/tracer.h"
 #include "lighting/scene.h"
 #include "tools/atomic_file.h"
 #include "tools/resources.h"
@@ -24,19 +23,20 @@ double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(
 // Rows traced per call, so the progress bar moves within a large view; each call still spans many tiles.
 constexpr int kRowsPerBand = 64;
 
-std::vector<ShadowLayer> traceOnCpu(const Scene& scene, const std::vector<LightView>& views, int threads) {
+// One view at a time, in bands of rows: the CPU backend's progress moves within a view.
+std::vector<ShadowLayer> traceInBands(const Scene& scene, const std::vector<LightView>& views, Tracer& tracer) {
   std::uint64_t totalRows = 0, doneRows = 0;
   for (const LightView& v : views) totalRows += std::uint64_t(v.trace.info.y);
   Progress progress("tracing");
   std::vector<ShadowLayer> layers(views.size());
-  CpuTracer tracer(scene.data());
+  tracer.setScene(scene.data());
   for (std::size_t i = 0; i < views.size(); ++i) {
     gpu::TraceView band = views[i].trace;
     const glm::ivec4 whole = band.rect;
     std::vector<ShadowLayer> one(1);
     for (int y0 = whole.y; y0 < whole.w; y0 += kRowsPerBand) {
       band.rect = glm::ivec4(whole.x, y0, whole.z, std::min(whole.w, y0 + kRowsPerBand));
-      tracer.trace(std::span<const gpu::TraceView>(&band, 1), one, CpuTracePath::Interleaved, threads);
+      tracer.traceShadow(std::span<const gpu::TraceView>(&band, 1), one);
       doneRows += std::uint64_t(band.rect.w - band.rect.y);
       progress.update(doneRows, totalRows);
     }
@@ -103,9 +103,9 @@ void checkDeviceFits(const Scene& scene, const std::vector<LightView>& views, co
   }
 }
 
-VulkanTracer openTracer(const std::string& device) {
+std::unique_ptr<Tracer> openVulkan(const std::string& device) {
   try {
-    return VulkanTracer(vulkanOptions(device));
+    return makeVulkanTracer(vulkanOptions(device));
   } catch (const Error& e) {
     if (e.kind() != ErrorKind::Runtime) throw;
     throwRuntime(std::string(e.what()) + " (to trace without Vulkan, use --backend cpu)");
@@ -114,20 +114,21 @@ VulkanTracer openTracer(const std::string& device) {
 
 // Views of one size are traced together, in batches of viewsPerBatch (one submission and one readback
 // each); views of different sizes go in separate calls, so the image array is never padded to the largest.
-std::vector<ShadowLayer> traceOnVulkan(const Scene& scene, const std::vector<LightView>& views,
-                                       VulkanTracer& tracer, VulkanBakeStats& stats) {
-  stats.device = tracer.device().name;
-  stats.pipeline = tracer.pipelineStats();
+std::vector<ShadowLayer> traceInBatches(const Scene& scene, const std::vector<LightView>& views, Tracer& tracer,
+                                        VulkanBakeStats& stats) {
+  const VulkanTracer& vulkan = *tracer.vulkan();
+  stats.device = tracer.deviceName();
+  stats.pipeline = vulkan.pipelineStats();
   if (!stats.pipeline.cacheError.empty())
     std::fprintf(stderr, "voxshadow: warning: pipeline cache: %s\n", stats.pipeline.cacheError.c_str());
-  tracer.upload(scene.data());
-  stats.boxTable = tracer.boxTableInUse();
+  tracer.setScene(scene.data());
+  stats.boxTable = vulkan.boxTableInUse();
   std::vector<std::pair<int, int>> sizes;
   for (const LightView& v : views) {
     std::pair<int, int> size(v.trace.info.x, v.trace.info.y);
     if (std::find(sizes.begin(), sizes.end(), size) == sizes.end()) sizes.push_back(size);
   }
-  Progress progress("tracing (" + tracer.device().name + ")");
+  Progress progress("tracing (" + tracer.deviceName() + ")");
   std::vector<ShadowLayer> layers(views.size());
   stats.viewGpuMs.assign(views.size(), -1.0);
   std::size_t done = 0;
@@ -135,13 +136,13 @@ std::vector<ShadowLayer> traceOnVulkan(const Scene& scene, const std::vector<Lig
     std::vector<std::size_t> members;
     for (std::size_t i = 0; i < views.size(); ++i)
       if (views[i].trace.info.x == size.first && views[i].trace.info.y == size.second) members.push_back(i);
-    const std::size_t batch = viewsPerBatch(tracer.device(), views[members[0]]);
+    const std::size_t batch = viewsPerBatch(vulkan.device(), views[members[0]]);
     for (std::size_t first = 0; first < members.size(); first += batch) {
       const std::size_t count = std::min(batch, members.size() - first);
       std::vector<gpu::TraceView> group;
       for (std::size_t k = 0; k < count; ++k) group.push_back(views[members[first + k]].trace);
       std::vector<ShadowLayer> out;
-      TraceStats t = tracer.trace(group, out);
+      TraceStats t = tracer.traceShadow(group, out);
       ++stats.dispatchCalls;
       stats.wallMs += t.wallMs;
       for (std::size_t k = 0; k < count; ++k) {
@@ -241,12 +242,14 @@ void runBake(const BakeOptions& options) {
   std::vector<ShadowLayer> layers;
   if (options.backend == "cpu") {
     checkHostMemory(scene, views, options, nullptr);
-    layers = traceOnCpu(scene, views, options.threads);
+    std::unique_ptr<Tracer> tracer = makeCpuTracer({CpuTracePath::Interleaved, options.threads});
+    layers = traceInBands(scene, views, *tracer);
   } else {
-    VulkanTracer tracer = openTracer(options.device);
-    checkDeviceFits(scene, views, tracer.device());
-    checkHostMemory(scene, views, options, &tracer.device());
-    layers = traceOnVulkan(scene, views, tracer, vulkanStats);
+    std::unique_ptr<Tracer> tracer = openVulkan(options.device);
+    const VulkanDeviceInfo& device = tracer->vulkan()->device();
+    checkDeviceFits(scene, views, device);
+    checkHostMemory(scene, views, options, &device);
+    layers = traceInBatches(scene, views, *tracer, vulkanStats);
   }
   double traceSeconds = secondsSince(t1);
 

@@ -1,7 +1,9 @@
 // voxshadow bench: the CPU backend (and the Vulkan backend when asked) against the OpenVDB peer on city512,
-// same rays, same thread count, in one run (DESIGN.md §10).
+// same rays, same thread count, in one run (DESIGN.md §10): shadow texels, primary rays from a perspective
+// camera (closest hits) and visibility rays from every primary hit toward the sun (any hits).
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <cstdio>
 #include <functional>
@@ -11,8 +13,7 @@
 
 #include <glm/glm.hpp>
 
-#include "compute/cpu/cpu_tracer.h"
-#include "compute/vulkan/vulkan_tracer.h"
+#include "compute/tracer.h"
 #include "tools/commands.h"
 #include "tools/resources.h"
 #include "tools/peer/openvdb_peer.h"
@@ -100,7 +101,7 @@ void printPairedRatio(const char* label, int reps, const std::function<double()>
 // The Vulkan backend on the same rays: pipeline creation (the shader JIT on lavapipe) and the first trace
 // are reported apart from the steady state, the median over `reps` traces after one more warm-up trace.
 struct VulkanBench {
-  std::unique_ptr<VulkanTracer> tracer;  // kept for the paired runs
+  std::unique_ptr<Tracer> tracer;  // kept for the paired runs
   std::vector<ShadowLayer> layers;
   std::string device;
   double pipelineMs = 0.0;
@@ -116,19 +117,19 @@ struct VulkanBench {
 VulkanBench benchVulkan(const SceneData& scene, const std::vector<gpu::TraceView>& views, int reps,
                         const std::vector<ShadowLayer>& reference) {
   VulkanBench b;
-  b.tracer = std::make_unique<VulkanTracer>();
-  VulkanTracer& tracer = *b.tracer;
-  b.device = tracer.device().name;
-  b.pipelineMs = tracer.pipelineStats().createMs;
-  b.warmCache = tracer.pipelineStats().warmCache;
-  b.uploadMs = timeOnce([&] { tracer.upload(scene); }) * 1e3;
-  b.instanceUploadMs = timeOnce([&] { tracer.uploadInstances(scene); }) * 1e3;
+  b.tracer = makeVulkanTracer();
+  Tracer& tracer = *b.tracer;
+  b.device = tracer.deviceName();
+  b.pipelineMs = tracer.vulkan()->pipelineStats().createMs;
+  b.warmCache = tracer.vulkan()->pipelineStats().warmCache;
+  b.uploadMs = timeOnce([&] { tracer.setScene(scene); }) * 1e3;
+  b.instanceUploadMs = timeOnce([&] { tracer.instancesMoved(scene); }) * 1e3;
   std::vector<ShadowLayer>& layers = b.layers;
-  b.firstWallMs = tracer.trace(views, layers).wallMs;
-  tracer.trace(views, layers);
+  b.firstWallMs = tracer.traceShadow(views, layers).wallMs;
+  tracer.traceShadow(views, layers);
   std::vector<double> gpu, wall;
   for (int i = 0; i < reps; ++i) {
-    TraceStats t = tracer.trace(views, layers);
+    TraceStats t = tracer.traceShadow(views, layers);
     gpu.push_back(t.gpuMs);
     wall.push_back(t.wallMs);
   }
@@ -138,6 +139,75 @@ VulkanBench benchVulkan(const SceneData& scene, const std::vector<gpu::TraceView
     for (std::size_t k = 0; k < layers[i].texels.size(); ++k)
       if (std::memcmp(&layers[i].texels[k], &reference[i].texels[k], sizeof(float)) != 0) ++b.differing;
   return b;
+}
+
+// The camera of the primary rays: 1280x720, 60 degrees vertical field of view, over the city from a corner.
+constexpr int kCameraWidth = 1280, kCameraHeight = 720;
+
+struct RayBench {
+  std::vector<gpu::TraceRay> rays;        // primary rays
+  std::vector<gpu::RayHit> hits;
+  std::vector<gpu::TraceRay> visibility;  // one per primary hit, toward the sun
+  std::vector<std::uint32_t> occluded;
+};
+
+// Seconds of a ray trace: GPU timestamps where the device has them, else the call's host time.
+double raySeconds(const TraceStats& t) { return (t.gpuMs > 0.0 ? t.gpuMs : t.wallMs) * 1e-3; }
+
+RayBench primaryRays(int) {
+  RayBench b;
+  const glm::dvec3 eye(700.0, 300.0, 760.0), target(256.0, 30.0, 256.0);
+  const glm::dvec3 forward = glm::normalize(target - eye);
+  const glm::dvec3 right = glm::normalize(glm::cross(forward, glm::dvec3(0.0, 1.0, 0.0)));
+  const glm::dvec3 up = glm::cross(right, forward);
+  const double tanHalf = std::tan(glm::radians(30.0)), aspect = double(kCameraWidth) / kCameraHeight;
+  b.rays.reserve(std::size_t(kCameraWidth) * kCameraHeight);
+  for (int y = 0; y < kCameraHeight; ++y)
+    for (int x = 0; x < kCameraWidth; ++x) {
+      double u = ((x + 0.5) / kCameraWidth * 2.0 - 1.0) * tanHalf * aspect;
+      double v = (1.0 - (y + 0.5) / kCameraHeight * 2.0) * tanHalf;
+      b.rays.push_back(gpu::makeTraceRay(eye, glm::normalize(forward + right * u + up * v), 0.0f, 4000.0f));
+    }
+  b.hits.resize(b.rays.size());
+  return b;
+}
+
+// Primary rays on `tracer`, then visibility rays from their hits (built once, from the first tracer's hits:
+// every backend gives the same), and the median seconds of each kind.
+void benchRayKinds(RayBench& b, Tracer& tracer, int reps, const char* label) {
+  std::vector<double> primary, visibility, visibilityClosest;
+  tracer.traceClosest(b.rays, b.hits);
+  if (b.visibility.empty()) {
+    // Toward the sun of the shadow view, from just before each hit's entry point (on the camera's side, so the
+    // ray does not start inside the voxel it hit).
+    const glm::dvec3 sun = glm::normalize(glm::dvec3(0.4, 1.0, 0.3));
+    for (std::size_t i = 0; i < b.rays.size(); ++i) {
+      if (!b.hits[i].hit) continue;
+      const gpu::TraceRay& r = b.rays[i];
+      glm::dvec3 o = glm::dvec3(glm::vec3(r.originHigh)) + glm::dvec3(glm::vec3(r.originLow));
+      glm::dvec3 d(glm::vec3(r.direction));
+      b.visibility.push_back(gpu::makeTraceRay(o + d * (double(b.hits[i].t) - 1e-3), sun, 0.0f, 4000.0f));
+    }
+    b.occluded.resize(b.visibility.size());
+  }
+  tracer.traceAny(b.visibility, b.occluded);
+  for (int i = 0; i < reps; ++i) {
+    primary.push_back(raySeconds(tracer.traceClosest(b.rays, b.hits)));
+    visibility.push_back(raySeconds(tracer.traceAny(b.visibility, b.occluded)));
+    // The same rays as closest-hit rays: what the any-hit kind saves.
+    std::vector<gpu::RayHit> visibilityHits(b.visibility.size());
+    visibilityClosest.push_back(raySeconds(tracer.traceClosest(b.visibility, visibilityHits)));
+  }
+  std::size_t hits = std::count_if(b.hits.begin(), b.hits.end(), [](const gpu::RayHit& h) { return h.hit != 0u; });
+  std::size_t shadowed = std::count(b.occluded.begin(), b.occluded.end(), 1u);
+  double p = median(primary), v = median(visibility);
+  std::printf("%-28s %9.3f s  %8.2f Mrays/s  (%zu hits)\n", (std::string(label) + " primary").c_str(), p,
+              double(b.rays.size()) / p / 1e6, hits);
+  std::printf("%-28s %9.3f s  %8.2f Mrays/s  (%zu occluded)\n", (std::string(label) + " visibility").c_str(), v,
+              double(b.visibility.size()) / v / 1e6, shadowed);
+  double c = median(visibilityClosest);
+  std::printf("%-28s %9.3f s  %8.2f Mrays/s  (the visibility rays as closest-hit rays)\n",
+              (std::string(label) + " visibility closest").c_str(), c, double(b.visibility.size()) / c / 1e6);
 }
 
 void runBench(const BenchOptions& opt) {
@@ -161,26 +231,27 @@ void runBench(const BenchOptions& opt) {
   const double rays = double(opt.resolution) * opt.resolution;
 
   std::vector<ShadowLayer> layers;
-  double referenceSeconds =
-      timeMedian(opt.reps, [&] { traceCpu(scene, views, layers, CpuTracePath::Reference, opt.threads); });
+  std::unique_ptr<Tracer> reference = makeCpuTracer({CpuTracePath::Reference, opt.threads});
+  reference->setScene(scene);
+  double referenceSeconds = timeMedian(opt.reps, [&] { reference->traceShadow(views, layers); });
   std::size_t hits = std::count_if(layers[0].texels.begin(), layers[0].texels.end(), [](float t) { return t < 1.0f; });
   std::printf("rays: %dx%d orthographic along (-0.4,-1,-0.3), %zu texels hit, %d threads, median of %d\n",
               opt.resolution, opt.resolution, hits, opt.threads, opt.reps);
   // The fast path's lookup tables are built once per scene, like the peer's grid and intersector: outside
   // the timed traces, and reported apart.
-  CpuTracer tracer(scene);
-  double cpuSeconds =
-      timeMedian(opt.reps, [&] { tracer.trace(views, layers, CpuTracePath::Interleaved, opt.threads); });
+  std::unique_ptr<Tracer> fast = makeCpuTracer({CpuTracePath::Interleaved, opt.threads});
+  fast->setScene(scene);
+  double cpuSeconds = timeMedian(opt.reps, [&] { fast->traceShadow(views, layers); });
   std::printf("%-28s %9.3f s  %8.2f Mrays/s\n", "cpu reference (per ray)", referenceSeconds,
               rays / referenceSeconds / 1e6);
   std::printf("%-28s %9.3f s  %8.2f Mrays/s  (lookup tables built once in %.1f ms)\n", "cpu interleaved tiles",
-              cpuSeconds, rays / cpuSeconds / 1e6, tracer.tableBuildSeconds() * 1e3);
+              cpuSeconds, rays / cpuSeconds / 1e6, fast->cpu()->tableBuildSeconds() * 1e3);
   double vulkanSeconds = 0.0;
   VulkanBench vb;
   if (opt.vulkan) {
-    std::vector<ShadowLayer> reference;
-    traceCpu(scene, views, reference, CpuTracePath::Reference, opt.threads);
-    vb = benchVulkan(scene, views, opt.reps, reference);
+    std::vector<ShadowLayer> referenceLayers;
+    reference->traceShadow(views, referenceLayers);
+    vb = benchVulkan(scene, views, opt.reps, referenceLayers);
     // Steady state from GPU timestamps where the device has them (the dispatch alone), else host time.
     vulkanSeconds = (vb.medianGpuMs > 0.0 ? vb.medianGpuMs : vb.medianWallMs) * 1e-3;
     std::printf("vulkan device: %s; pipeline creation %.1f ms (%s cache), first trace %.1f ms (wall)\n",
@@ -192,6 +263,11 @@ void runBench(const BenchOptions& opt) {
                 rays / (vb.medianWallMs * 1e-3) / 1e6);
     std::printf("vulkan texels differing from the cpu reference: %zu\n", vb.differing);
   }
+  RayBench primary = primaryRays(opt.resolution);
+  std::printf("primary rays: %zu from a %dx%d perspective camera; visibility rays from each primary hit toward the "
+              "sun\n", primary.rays.size(), kCameraWidth, kCameraHeight);
+  benchRayKinds(primary, *fast, opt.reps, "cpu interleaved");
+  if (opt.vulkan) benchRayKinds(primary, *vb.tracer, opt.reps, "vulkan");
   if (opt.skipPeer) return;
 
   OpenVdbPeer peer(objects, scene);
@@ -204,15 +280,31 @@ void runBench(const BenchOptions& opt) {
   std::printf("ratio cpu interleaved / peer: %.2fx\n", peerSeconds / cpuSeconds);
   if (opt.vulkan) std::printf("ratio vulkan / peer:          %.2fx\n", peerSeconds / vulkanSeconds);
   auto peerRun = [&] { return timeOnce([&] { peerOut = peer.traceViews(scene, views, opt.threads); }); };
-  printPairedRatio("cpu interleaved", opt.reps,
-                   [&] { return timeOnce([&] { tracer.trace(views, layers, CpuTracePath::Interleaved, opt.threads); }); },
+  printPairedRatio("cpu interleaved", opt.reps, [&] { return timeOnce([&] { fast->traceShadow(views, layers); }); },
                    peerRun);
   if (opt.vulkan) {
     // The steady state as above: the dispatch from GPU timestamps where the device has them.
     printPairedRatio("vulkan", opt.reps, [&] {
-      TraceStats t = vb.tracer->trace(views, vb.layers);
+      TraceStats t = vb.tracer->traceShadow(views, vb.layers);
       return (t.gpuMs > 0.0 ? t.gpuMs : t.wallMs) * 1e-3;
     }, peerRun);
+  }
+  // The ray kinds against the peer on the same rays (its visibility search stops at the first hit).
+  std::vector<std::uint8_t> peerRayHits;
+  auto peerClosest = [&] { return timeOnce([&] { peerRayHits = peer.traceRays(primary.rays, false, opt.threads); }); };
+  auto peerVisibility = [&] { return timeOnce([&] { peerRayHits = peer.traceRays(primary.visibility, true, opt.threads); }); };
+  peerClosest();
+  std::printf("openvdb peer: %zu primary hits", std::size_t(std::count(peerRayHits.begin(), peerRayHits.end(), 1)));
+  peerVisibility();
+  std::printf(", %zu visibility rays occluded\n", std::size_t(std::count(peerRayHits.begin(), peerRayHits.end(), 1)));
+  std::vector<Tracer*> rayTracers = {fast.get()};
+  if (opt.vulkan) rayTracers.push_back(vb.tracer.get());
+  for (Tracer* t : rayTracers) {
+    std::string label = t == fast.get() ? "cpu interleaved" : "vulkan";
+    printPairedRatio((label + " primary").c_str(), opt.reps,
+                     [&] { return raySeconds(t->traceClosest(primary.rays, primary.hits)); }, peerClosest);
+    printPairedRatio((label + " visibility").c_str(), opt.reps,
+                     [&] { return raySeconds(t->traceAny(primary.visibility, primary.occluded)); }, peerVisibility);
   }
 }
 

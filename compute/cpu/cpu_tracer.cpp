@@ -11,17 +11,18 @@
 
 #include "compute/cpu/lane_tracer.h"
 #include "compute/cpu/scene_arrays.h"
+#include "compute/cpu/ray_sources.h"
 #include "compute/cpu/tile_tracer.h"
 #include "voxel/error.h"
 
 namespace vs {
 namespace {
 
-// Work is split into tiles of this many texels (one interleaved batch, kMaxTileRays): big enough to
+// Work is split into tiles of this many texels: big enough to
 // amortise scheduling, small enough that threads stay balanced on views whose hits cluster in one corner.
 constexpr int kTileWidth = 16;
 constexpr int kTileHeight = 4;
-static_assert(kTileWidth * kTileHeight <= kMaxTileRays, "a tile is one interleaved batch");
+
 
 void checkView(const gpu::TraceView& view, std::size_t index) {
   const glm::ivec4& r = view.rect;
@@ -44,6 +45,29 @@ void traceCpu(const SceneData& scene, std::span<const gpu::TraceView> views, std
   CpuTracer(scene).trace(views, layers, path, threads);
 }
 
+void CpuTracer::ensureTables() {
+  // Built on the first fast-path trace after a voxel change, inside the caller's thread count.
+  if (tablesBuilt_) return;
+  auto start = std::chrono::steady_clock::now();
+  lanes_ = laneTracerSupported(*scene_) && buildLaneTables(*scene_, *tables_);
+  tablesBuilt_ = true;
+  tableSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+namespace {
+
+template <class Run>
+void inArena(int threads, Run&& run) {
+  if (threads > 0) {
+    tbb::task_arena arena(threads);
+    arena.execute(run);
+  } else {
+    run();
+  }
+}
+
+}  // namespace
+
 void CpuTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers, CpuTracePath path,
                       int threads) {
   const SceneData& scene = *scene_;
@@ -64,42 +88,91 @@ void CpuTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowL
   }
 
   gpu::SceneArrays arrays(scene);
-  const LaneTables& laneTables = *tables_;
-  auto run = [&] {
-    // Built here, inside the caller's thread count, on the first fast-path trace after a voxel change.
-    if (path == CpuTracePath::Interleaved && !tablesBuilt_) {
-      auto start = std::chrono::steady_clock::now();
-      lanes_ = laneTracerSupported(scene) && buildLaneTables(scene, *tables_);
-      tablesBuilt_ = true;
-      tableSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    }
+  inArena(threads, [&] {
+    if (path == CpuTracePath::Interleaved) ensureTables();
     const bool lanes = path == CpuTracePath::Interleaved && lanes_;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, jobs.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+      // One stream over the whole range, so that lanes freed by short rays pick up the next tile's texels.
+      std::span<const TexelTile> range = std::span<const TexelTile>(jobs).subspan(r.begin(), r.size());
       if (lanes) {
-        // One stream over the whole range, so that lanes freed by short rays pick up the next tile's texels.
-        traceTilesLanes(arrays, laneTables, views, std::span<const TexelTile>(jobs).subspan(r.begin(), r.size()), layers);
+        traceTilesLanes(arrays, *tables_, views, range, layers);
         return;
       }
-      for (std::size_t j = r.begin(); j != r.end(); ++j) {
-        const TexelTile& job = jobs[j];
+      if (path != CpuTracePath::Reference) {
+        rays::TexelSource source(views, range, layers);
+        traceInterleaved(arrays, source);
+        return;
+      }
+      for (const TexelTile& job : range) {
         const gpu::TraceView& view = views[job.view];
         ShadowLayer& layer = layers[job.view];
-        if (path == CpuTracePath::Interleaved) {
-          traceTileInterleaved(arrays, view, job.x0, job.y0, job.x1, job.y1, layer.texels.data(), layer.width);
-          continue;
-        }
         for (int y = job.y0; y < job.y1; ++y)
           for (int x = job.x0; x < job.x1; ++x)
             layer.texels[std::size_t(y) * layer.width + x] = arrays.vsShadowTexel(view, glm::ivec2(x, y));
       }
     });
-  };
-  if (threads > 0) {
-    tbb::task_arena arena(threads);
-    arena.execute(run);
-  } else {
-    run();
-  }
+  });
+}
+
+// Rays are handed out in chunks of this many: a chunk is one lane stream, long enough that lanes stay full.
+constexpr std::size_t kRayChunk = 1024;
+
+void CpuTracer::traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits, CpuTracePath path,
+                             int threads) {
+  if (hits.size() != rays.size())
+    throwBadInput("traceClosest: " + std::to_string(hits.size()) + " hit records for " + std::to_string(rays.size()) +
+                  " rays");
+  gpu::SceneArrays arrays(*scene_);
+  inArena(threads, [&] {
+    if (path == CpuTracePath::Interleaved) ensureTables();
+    const bool lanes = path == CpuTracePath::Interleaved && lanes_;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), kRayChunk),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        if (lanes) {
+                          traceClosestLanes(arrays, *tables_, rays.subspan(r.begin(), r.size()),
+                                            hits.subspan(r.begin(), r.size()));
+                        } else if (path != CpuTracePath::Reference) {
+                          rays::ClosestSource source;
+                          source.rays = rays;
+                          source.cursor = r.begin();
+                          source.end = r.end();
+                          source.hits = hits.data();
+                          traceInterleaved(arrays, source);
+                        } else {
+                          for (std::size_t i = r.begin(); i != r.end(); ++i)
+                            hits[i] = arrays.vsClosestHit(arrays.vsTraceRayToWorld(rays[i]));
+                        }
+                      });
+  });
+}
+
+void CpuTracer::traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded, CpuTracePath path,
+                         int threads) {
+  if (occluded.size() != rays.size())
+    throwBadInput("traceAny: " + std::to_string(occluded.size()) + " results for " + std::to_string(rays.size()) +
+                  " rays");
+  gpu::SceneArrays arrays(*scene_);
+  inArena(threads, [&] {
+    if (path == CpuTracePath::Interleaved) ensureTables();
+    const bool lanes = path == CpuTracePath::Interleaved && lanes_;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), kRayChunk),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        if (lanes) {
+                          traceAnyLanes(arrays, *tables_, rays.subspan(r.begin(), r.size()),
+                                        occluded.subspan(r.begin(), r.size()));
+                        } else if (path != CpuTracePath::Reference) {
+                          rays::AnySource source;
+                          source.rays = rays;
+                          source.cursor = r.begin();
+                          source.end = r.end();
+                          source.occluded = occluded.data();
+                          traceInterleaved(arrays, source);
+                        } else {
+                          for (std::size_t i = r.begin(); i != r.end(); ++i)
+                            occluded[i] = arrays.vsAnyHit(arrays.vsTraceRayToWorld(rays[i])) ? 1u : 0u;
+                        }
+                      });
+  });
 }
 
 bool traceRayCpu(const SceneData& scene, glm::vec3 origin, glm::vec3 direction, float tMin, float tMax, float& tHit,

@@ -19,14 +19,16 @@ struct ShadowLayer {
 
 enum class CpuTracePath {
   Reference,    // the portable per-ray traversal, exactly what the shader runs
-  // Tiles of rays walked in lockstep, equal to Reference texel for texel: eight rays per AVX2 step
+  // Batches of rays walked in lockstep, equal to Reference ray for ray: eight rays per AVX2 step
   // (compute/cpu/lane_tracer.h) where the processor has AVX2, else round-robin (compute/cpu/tile_tracer.h).
   Interleaved,
+  // The round-robin tiles whatever the processor: what Interleaved runs where AVX2 is missing.
+  PortableTiles,
 };
 
 struct LaneTables;
 
-// The CPU backend bound to one scene. The fast path's lookup tables (dense per-object codes of every sector
+// The CPU backend bound to one scene: shadow texels, closest-hit and any-hit rays. The fast path's lookup tables (dense per-object codes of every sector
 // and brick, and the empty boxes around empty bricks; compute/cpu/lane_tracer.h) are derived from the voxel
 // arrays once and kept between traces, so a frame in which no voxel changed rebuilds nothing; moving
 // instances changes no table.
@@ -48,10 +50,20 @@ class CpuTracer {
   void trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers,
              CpuTracePath path = CpuTracePath::Interleaved, int threads = 0);
 
+  // Closest-hit records of rays[i] into hits[i] (same length, else vs::Error(BadInput)): instance, object
+  // voxel, entry face, t and palette index (compute/shared/trace_rays.h).
+  void traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits,
+                    CpuTracePath path = CpuTracePath::Interleaved, int threads = 0);
+  // Any-hit answers: occluded[i] = 1 where rays[i]'s segment [tMin, tMax] holds a solid voxel, else 0.
+  void traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded,
+                CpuTracePath path = CpuTracePath::Interleaved, int threads = 0);
+
   // Seconds the last table build took (0 before the first fast-path trace).
   double tableBuildSeconds() const { return tableSeconds_; }
 
  private:
+  void ensureTables();
+
   const SceneData* scene_;
   std::unique_ptr<LaneTables> tables_;
   bool tablesBuilt_ = false;

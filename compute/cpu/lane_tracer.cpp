@@ -629,96 +629,45 @@ SingleInstance singleInstance(const gpu::SceneArrays& arrays) {
   return one;
 }
 
-// A ray of a single-instance scene, set up and waiting for a lane: what loadSingleLane and the texel value need.
+// A ray of a single-instance scene, set up and waiting for a lane: what loadSingleLane and the result need.
+template <class Target>
 struct SingleRay {
-  tile::WorldRay ray;           // the world ray (vsViewRay)
+  tile::WorldRay ray;           // the world ray
   float tBase;                  // vsInstanceBaseT: the walk's t is relative to it
   float lo[3], ld[3], invD[3];  // the brick-space ray and vsObjectWalkBegin's inverse direction
   int v[3];                     // the walk's first voxel
   float t0, t1;                 // its entry t and the end of its span
-  const gpu::TraceView* view;
-  float* texel;
+  Target target;
 };
 
-// Eight texel rays of one view through a single-instance scene, set up by the portable code as
-// collectCandidates and beginNextWalk would (the one leaf's box, the instance's box, the re-based instance ray,
-// vsObjectWalkBegin), into rays[i]; walks[i] says which rays begin a walk (the others miss).
-void setupBatch(gpu::SceneArrays& arrays, const SingleInstance& one, const gpu::TraceView& view, const int* xs,
-                const int* ys, SingleRay* rays, bool* walks) {
-  for (int i = 0; i < kLanes; ++i) {
-    SingleRay& r = rays[i];
-    walks[i] = false;
-    arrays.vsViewRay(view, glm::ivec2(xs[i], ys[i]), r.ray);
-    r.tBase = 0.0f;
-    if (!arrays.vsRayIsFinite(r.ray)) continue;
-    const tile::WorldRay& ray = r.ray;
-    // The one leaf's box is the instance's: one test says whether the ray enters it.
-    const float entry = arrays.vsInstanceEntry(ray, one.instance);
-    if (entry == gpu::VS_T_INFINITY) continue;
-    r.tBase = arrays.vsBaseT(ray, entry);
-    glm::vec3 lo, ld;
-    arrays.vsInstanceRay(ray, one.instance, r.tBase, lo, ld);
-    gpu::SceneArrays::ObjectWalk w;
-    if (!arrays.vsObjectWalkBegin(one.objectIndex, lo, ld, arrays.vsLocalT(ray.tMin, r.tBase),
-                                  arrays.vsLocalT(ray.tMax, r.tBase), w))
-      continue;
-    for (int k = 0; k < 3; ++k) {
-      r.lo[k] = w.o[k];
-      r.ld[k] = w.d[k];
-      r.invD[k] = w.invD[k];
-      r.v[k] = w.v[k];
-    }
-    r.t0 = w.tEnter;
-    r.t1 = w.t1;
-    walks[i] = true;
+// One ray through a single-instance scene, set up by the portable code as collectCandidates and beginNextWalk
+// would (the one leaf's box, the instance's box, the re-based instance ray, vsObjectWalkBegin); false when it
+// begins no walk (a miss).
+template <class Target>
+bool setupSingle(gpu::SceneArrays& arrays, const SingleInstance& one, SingleRay<Target>& r) {
+  r.tBase = 0.0f;
+  if (!arrays.vsRayIsFinite(r.ray)) return false;
+  const tile::WorldRay& ray = r.ray;
+  // The one leaf's box is the instance's: one test says whether the ray enters it.
+  const float entry = arrays.vsInstanceEntry(ray, one.instance);
+  if (entry == gpu::VS_T_INFINITY) return false;
+  r.tBase = arrays.vsBaseT(ray, entry);
+  glm::vec3 lo, ld;
+  arrays.vsInstanceRay(ray, one.instance, r.tBase, lo, ld);
+  gpu::SceneArrays::ObjectWalk w;
+  if (!arrays.vsObjectWalkBegin(one.objectIndex, lo, ld, arrays.vsLocalT(ray.tMin, r.tBase),
+                                arrays.vsLocalT(ray.tMax, r.tBase), w))
+    return false;
+  for (int k = 0; k < 3; ++k) {
+    r.lo[k] = w.o[k];
+    r.ld[k] = w.d[k];
+    r.invD[k] = w.invD[k];
+    r.v[k] = w.v[k];
   }
+  r.t0 = w.tEnter;
+  r.t1 = w.t1;
+  return true;
 }
-
-// The texels of a run of tiles, in order, one ray at a time.
-struct TexelStream {
-  std::span<const TexelTile> tiles;
-  std::size_t tile = 0;
-  int x = 0, y = 0;
-  bool started = false;
-
-  // The view of the next texel, without taking it; false at the end.
-  bool peek(int& view) {
-    while (tile < tiles.size()) {
-      const TexelTile& t = tiles[tile];
-      if (started ? (y < t.y1 && x < t.x1) : (t.x0 < t.x1 && t.y0 < t.y1)) {
-        view = t.view;
-        return true;
-      }
-      ++tile;
-      started = false;
-    }
-    return false;
-  }
-
-  bool next(int& view, int& tx, int& ty) {
-    while (tile < tiles.size()) {
-      const TexelTile& t = tiles[tile];
-      if (!started) {
-        x = t.x0;
-        y = t.y0;
-        started = true;
-      }
-      if (y < t.y1 && x < t.x1) {
-        view = t.view;
-        tx = x;
-        ty = y;
-        if (++x == t.x1) {
-          x = t.x0;
-          ++y;
-        }
-        return true;
-      }
-      ++tile;
-      started = false;
-    }
-    return false;
-  }
-};
 
 // Gives every lane of the groups a ray (refill(k, i)), then steps all groups until no lane walks. A lane that
 // finishes is handed to finished(k, i, hit), which gives it its next ray (or leaves it idle).
@@ -746,25 +695,18 @@ void stepLaneGroups(const gpu::SceneArrays& arrays, const LaneTables& tables, La
   }
 }
 
-// Places a walk set up by setupBatch in lane i. The object's fields of the lanes were set once: every lane
-// walks the same object.
-void loadSingleLane(Lanes& L, int i, const SingleRay& r, int stepsLeft) {
-  loadLaneRay(L, i, r.lo, r.ld, r.invD, r.v, r.t0, r.t1, stepsLeft);
-}
-
-// The single-instance driver: rays are set up eight at a time straight into compact records, lanes take them
-// as they free up, and a finished lane writes its texel at once (one object, one candidate: nothing else to
-// walk, so no per-ray candidate state).
-void traceTilesSingle(gpu::SceneArrays& arrays, const LaneTables& tables, const SingleInstance& one,
-                      std::span<const gpu::TraceView> views, std::span<const TexelTile> tiles,
-                      std::vector<ShadowLayer>& layers) {
+// The single-instance driver: rays are set up a batch at a time straight into compact records, lanes take
+// them as they free up, and a finished lane hands its result to the source at once (one object, one
+// candidate: nothing else to walk, so no per-ray candidate state, and an any-hit ray ends like any other).
+template <class Source>
+void traceSingle(gpu::SceneArrays& arrays, const LaneTables& tables, const SingleInstance& one, Source& source) {
+  using Ray = SingleRay<typename Source::Target>;
   constexpr int kGroups = 4;
   constexpr int kReady = 64;
   std::unique_ptr<Lanes[]> groups(new Lanes[kGroups]);
-  SingleRay laneRay[kGroups][kLanes];
-  SingleRay ready[kReady];
+  std::unique_ptr<Ray[]> laneRay(new Ray[kGroups * kLanes]);
+  std::unique_ptr<Ray[]> ready(new Ray[kReady]);
   int readyHead = 0, readyCount = 0;
-  TexelStream stream{tiles};
   const gpu::ObjectRecord& obj = arrays.objects[one.objectIndex];
   const int stepsLeft = (obj.voxelMax.x - obj.voxelMin.x) + (obj.voxelMax.y - obj.voxelMin.y) +
                         (obj.voxelMax.z - obj.voxelMin.z) + 3;
@@ -779,73 +721,58 @@ void traceTilesSingle(gpu::SceneArrays& arrays, const LaneTables& tables, const 
       }
   }
   // tLocal: the hit's t relative to the ray's base.
-  auto writeTexel = [&](const SingleRay& r, bool hit, float tLocal, glm::ivec3 voxel) {
+  auto finish = [&](const Ray& r, bool hit, float tLocal, glm::ivec3 voxel) {
     float t = hit ? arrays.vsWorldT(tLocal, r.tBase) : r.ray.tMax;
-    *r.texel = arrays.vsTexelValue(*r.view, r.ray, hit, t, one.instance, voxel);
+    source.finish(arrays, r.target, r.ray, hit, t, one.instance, voxel);
   };
-  // Sets up rays until `ready` holds a batch's worth (rays without a walk are written as misses on the way).
+  // Sets up rays until `ready` is full (rays without a walk are finished as misses on the way).
   auto prepare = [&] {
     readyHead = readyCount = 0;
-    int view = 0;
-    while (readyCount <= kReady - kLanes && stream.peek(view)) {
-      int xs[kLanes], ys[kLanes], n = 0, nextView = 0;
-      while (n < kLanes && stream.peek(nextView) && nextView == view && stream.next(nextView, xs[n], ys[n])) ++n;
-      for (int i = n; i < kLanes; ++i) xs[i] = xs[0], ys[i] = ys[0];
-      SingleRay* batch = ready + readyCount;
-      bool walks[kLanes];
-      setupBatch(arrays, one, views[std::size_t(view)], xs, ys, batch, walks);
-      ShadowLayer& layer = layers[std::size_t(view)];
-      int kept = 0;
-      for (int i = 0; i < n; ++i) {
-        SingleRay& r = batch[i];
-        r.view = &views[std::size_t(view)];
-        r.texel = &layer.texels[std::size_t(ys[i]) * layer.width + xs[i]];
-        if (!walks[i]) {
-          writeTexel(r, false, 0.0f, glm::ivec3(0));
-          continue;
-        }
-        if (kept != i) batch[kept] = r;
-        ++kept;
+    while (readyCount < kReady) {
+      Ray& r = ready[readyCount];
+      if (!source.next(arrays, r.ray, r.target)) break;
+      if (setupSingle(arrays, one, r)) {
+        ++readyCount;
+      } else {
+        finish(r, false, 0.0f, glm::ivec3(0));
       }
-      readyCount += kept;
     }
   };
   auto refill = [&](int k, int i) {
     groups[k].live[i] = 0;
     if (readyHead == readyCount) prepare();
     if (readyHead == readyCount) return;
-    laneRay[k][i] = ready[readyHead++];
-    loadSingleLane(groups[k], i, laneRay[k][i], stepsLeft);
+    const Ray& r = laneRay[k * kLanes + i] = ready[readyHead++];
+    loadLaneRay(groups[k], i, r.lo, r.ld, r.invD, r.v, r.t0, r.t1, stepsLeft);
   };
 
   stepLaneGroups(arrays, tables, groups.get(), kGroups, refill, [&](int k, int i, bool hit) {
     const Lanes& L = groups[k];
-    writeTexel(laneRay[k][i], hit, L.tEnter[i], glm::ivec3(L.v[0][i], L.v[1][i], L.v[2][i]));
+    finish(laneRay[k * kLanes + i], hit, L.tEnter[i], glm::ivec3(L.v[0][i], L.v[1][i], L.v[2][i]));
     refill(k, i);
   });
 }
 
-}  // namespace
-
-void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::span<const gpu::TraceView> views,
-                     std::span<const TexelTile> tiles, std::vector<ShadowLayer>& layers) {
+// The general driver: each ray visits its candidate instances (compute/cpu/tile_rays.h) one walk at a time,
+// a lane per walk.
+template <class Source>
+void traceLanes(gpu::SceneArrays& arrays, const LaneTables& tables, Source& source) {
+  const SingleInstance one = singleInstance(arrays);
+  if (one.enabled) {
+    traceSingle(arrays, tables, one, source);
+    return;
+  }
   // Several independent groups of eight lanes, stepped in turn: a group's step is one long chain of
   // dependent gathers, and the next group's chain overlaps it in the processor.
   constexpr int kGroups = 4;
-  // Rays are set up (view ray, candidates, first walk) a batch at a time, in one tight scalar loop, and wait
-  // in `ready` until a lane frees up.
+  // Rays are set up (ray, candidates, first walk) a batch at a time, in one tight scalar loop, and wait in
+  // `ready` until a lane frees up.
   constexpr int kBatch = 16;
   constexpr int kPool = kGroups * kLanes + kBatch;
   struct Ray {
     tile::RayState state;
-    const gpu::TraceView* view = nullptr;
-    float* texel = nullptr;
+    typename Source::Target target;
   };
-  const SingleInstance one = singleInstance(arrays);
-  if (one.enabled) {
-    traceTilesSingle(arrays, tables, one, views, tiles, layers);
-    return;
-  }
   std::unique_ptr<Ray[]> pool(new Ray[kPool]);
   std::unique_ptr<Lanes[]> groups(new Lanes[kGroups]);
   int laneRay[kGroups][kLanes] = {};
@@ -854,29 +781,25 @@ void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::sp
   for (int s = 0; s < kPool; ++s) freeSlots[s] = kPool - 1 - s;
   int ready[kBatch];
   int readyHead = 0, readyCount = 0;
-  TexelStream stream{tiles};
 
   auto finish = [&](int slot) {
-    const Ray& ray = pool[slot];
-    *ray.texel = tile::texelValue(arrays, *ray.view, ray.state);
+    const tile::RayState& r = pool[slot].state;
+    source.finish(arrays, pool[slot].target, r.ray, r.hit, r.tBest, r.instanceHit, r.voxel);
     freeSlots[freeCount++] = slot;
   };
-  // Sets up the next batch of rays that need a walk (texels that need none are finished on the way).
+  // Sets up the next batch of rays that need a walk (rays that need none are finished on the way).
   auto prepare = [&] {
     readyHead = readyCount = 0;
-    int view = 0, x = 0, y = 0;
-    while (readyCount < kBatch && stream.next(view, x, y)) {
-      int slot = freeSlots[--freeCount];
+    while (readyCount < kBatch) {
+      int slot = freeSlots[freeCount - 1];
       Ray& ray = pool[slot];
-      tile::RayState& r = ray.state;
-      ShadowLayer& layer = layers[std::size_t(view)];
-      ray.view = &views[std::size_t(view)];
-      ray.texel = &layer.texels[std::size_t(y) * layer.width + x];
       tile::WorldRay worldRay;
-      arrays.vsViewRay(*ray.view, glm::ivec2(x, y), worldRay);
+      if (!source.next(arrays, worldRay, ray.target)) break;
+      --freeCount;
+      tile::RayState& r = ray.state;
       tile::beginRay(arrays, r, worldRay);
       if (!tile::collectCandidates(arrays, r)) {
-        *ray.texel = arrays.vsShadowTexel(*ray.view, glm::ivec2(x, y));
+        source.traceAlone(arrays, ray.target, worldRay);
         freeSlots[freeCount++] = slot;
         continue;
       }
@@ -887,7 +810,7 @@ void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::sp
       finish(slot);
     }
   };
-  // Gives lane i of group k the next ready ray, or leaves it idle when the stream is exhausted.
+  // Gives lane i of group k the next ready ray, or leaves it idle when the source is exhausted.
   auto refill = [&](int k, int i) {
     groups[k].live[i] = 0;
     if (readyHead == readyCount) prepare();
@@ -903,13 +826,39 @@ void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::sp
     int slot = laneRay[k][i];
     tile::RayState& r = pool[slot].state;
     if (hit) tile::recordHit(arrays, r, L.tEnter[i], glm::ivec3(L.v[0][i], L.v[1][i], L.v[2][i]));
-    if (tile::beginNextWalk(arrays, r)) {
+    if (!(Source::kAnyHit && r.hit) && tile::beginNextWalk(arrays, r)) {
       loadLane(L, i, r.walk, tables, arrays.instances[r.walkingInstance].info.x);
       return;
     }
     finish(slot);
     refill(k, i);
   });
+}
+
+}  // namespace
+
+void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::span<const gpu::TraceView> views,
+                     std::span<const TexelTile> tiles, std::vector<ShadowLayer>& layers) {
+  rays::TexelSource source(views, tiles, layers);
+  traceLanes(arrays, tables, source);
+}
+
+void traceClosestLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::span<const gpu::TraceRay> rays,
+                       std::span<gpu::RayHit> hits) {
+  rays::ClosestSource source;
+  source.rays = rays;
+  source.end = rays.size();
+  source.hits = hits.data();
+  traceLanes(arrays, tables, source);
+}
+
+void traceAnyLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::span<const gpu::TraceRay> rays,
+                   std::span<std::uint32_t> occluded) {
+  rays::AnySource source;
+  source.rays = rays;
+  source.end = rays.size();
+  source.occluded = occluded.data();
+  traceLanes(arrays, tables, source);
 }
 
 #ifdef __clang__
@@ -920,6 +869,12 @@ void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::sp
 #else
 void traceTilesLanes(gpu::SceneArrays&, const LaneTables&, std::span<const gpu::TraceView>, std::span<const TexelTile>,
                      std::vector<ShadowLayer>&) {
+  throwBadInput("the lane tracer needs x86-64 with AVX2");
+}
+void traceClosestLanes(gpu::SceneArrays&, const LaneTables&, std::span<const gpu::TraceRay>, std::span<gpu::RayHit>) {
+  throwBadInput("the lane tracer needs x86-64 with AVX2");
+}
+void traceAnyLanes(gpu::SceneArrays&, const LaneTables&, std::span<const gpu::TraceRay>, std::span<std::uint32_t>) {
   throwBadInput("the lane tracer needs x86-64 with AVX2");
 }
 #endif

@@ -8,9 +8,10 @@
 // the reference's however far each step went.
 //
 // Four groups of eight lanes are stepped in three parts each, so that the groups' gathers overlap. A lane
-// whose ray finishes takes the next ray at once. Rays are set up by the portable scalar code (vsViewRay,
-// candidates from the BVH, the re-based instance ray, vsObjectWalkBegin); a scene whose BVH is one leaf holding
-// one instance skips the candidate lists.
+// whose ray finishes takes the next ray at once. Rays come from a source (compute/cpu/ray_sources.h: shadow
+// texels, closest-hit or any-hit rays) and are set up by the portable scalar code (candidates from the BVH, the
+// re-based instance ray, vsObjectWalkBegin); a scene whose BVH is one leaf holding one instance skips the
+// candidate lists.
 #ifndef VOXSHADOW_LANE_TRACER_H
 #define VOXSHADOW_LANE_TRACER_H
 
@@ -20,14 +21,10 @@
 #include <vector>
 
 #include "compute/cpu/cpu_tracer.h"
+#include "compute/cpu/ray_sources.h"
 #include "compute/cpu/scene_arrays.h"
 
 namespace vs {
-
-// A texel rectangle [x0, x1) x [y0, y1) of view `view`.
-struct TexelTile {
-  int view, x0, y0, x1, y1;
-};
 
 // Whether this processor runs the lane tracer (AVX2) and the scene's arrays fit its 32-bit gather indices.
 bool laneTracerSupported(const SceneData& scene);
@@ -63,6 +60,13 @@ bool buildLaneTables(const SceneData& scene, LaneTables& tables, std::size_t max
 // `arrays`; tiles lie inside their views and layers[tile.view] has the view's size.
 void traceTilesLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::span<const gpu::TraceView> views,
                      std::span<const TexelTile> tiles, std::vector<ShadowLayer>& layers);
+
+// Closest hits of rays[i] into hits[i], and any-hit answers into occluded[i] (1: the segment holds a solid
+// voxel). Preconditions as for traceTilesLanes; the outputs are as long as `rays`.
+void traceClosestLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::span<const gpu::TraceRay> rays,
+                       std::span<gpu::RayHit> hits);
+void traceAnyLanes(gpu::SceneArrays& arrays, const LaneTables& tables, std::span<const gpu::TraceRay> rays,
+                   std::span<std::uint32_t> occluded);
 
 }  // namespace vs
 

@@ -17,6 +17,7 @@ struct SceneArrays {
   const Sector* sectors = nullptr;
   const Brick* bricks = nullptr;
   const uint* occupancy = nullptr;
+  const uint* payload = nullptr;
   const ObjectRecord* objects = nullptr;
   const InstanceRecord* instances = nullptr;
   const BvhNode* nodes = nullptr;
@@ -33,6 +34,7 @@ struct SceneArrays {
         sectors(scene.sectors.data()),
         bricks(scene.bricks.data()),
         occupancy(scene.occupancy.data()),
+        payload(scene.payload.data()),
         objects(scene.objects.data()),
         instances(scene.instances.data()),
         nodes(scene.bvh.nodes().data()),

@@ -83,7 +83,7 @@ inline bool beginNextWalk(gpu::SceneArrays& arrays, RayState& r) {
     glm::vec3 lo, ld;
     arrays.vsInstanceRay(r.ray, c.instance, tBase, lo, ld);
     if (arrays.vsObjectWalkBegin(rec.info.x, lo, ld, arrays.vsLocalT(r.ray.tMin, tBase),
-                                 arrays.vsLocalT(r.tBest, tBase), r.walk)) {
+                                 arrays.vsWalkEnd(r.hit, r.tBest, r.ray.tMax, tBase), r.walk)) {
       r.walkingInstance = c.instance;
       r.walkBase = tBase;
       return true;
@@ -101,11 +101,6 @@ inline void recordHit(gpu::SceneArrays& arrays, RayState& r, float tLocal, glm::
     r.voxel = voxel;
   }
   r.hit = true;
-}
-
-// The texel value of a finished ray.
-inline float texelValue(gpu::SceneArrays& arrays, const gpu::TraceView& view, const RayState& r) {
-  return arrays.vsTexelValue(view, r.ray, r.hit, r.tBest, r.instanceHit, r.voxel);
 }
 
 }  // namespace vs::tile

@@ -1,65 +1,65 @@
 #include "compute/cpu/tile_tracer.h"
 
-#include <algorithm>
 #include <array>
 
 #include "compute/cpu/tile_rays.h"
 
 namespace vs {
 
-using tile::RayState;
-using tile::beginNextWalk;
-using tile::collectCandidates;
-
-void traceTileInterleaved(gpu::SceneArrays& arrays, const gpu::TraceView& view, int x0, int y0, int x1, int y1,
-                          float* texels, int stride) {
-  std::array<RayState, kMaxTileRays> rays;
-  std::array<int, kMaxTileRays> texelIndex;
+template <class Source>
+void traceInterleaved(gpu::SceneArrays& arrays, Source& source) {
+  using Target = typename Source::Target;
+  std::array<tile::RayState, kMaxTileRays> rays;
+  std::array<Target, kMaxTileRays> targets;
   std::array<int, kMaxTileRays> active;
-  int activeCount = 0;
-  int count = 0;
   auto finish = [&](int i) {
-    const RayState& r = rays[i];
-    texels[texelIndex[i]] = tile::texelValue(arrays, view, r);
+    const tile::RayState& r = rays[i];
+    source.finish(arrays, targets[i], r.ray, r.hit, r.tBest, r.instanceHit, r.voxel);
   };
-  for (int y = y0; y < y1; ++y) {
-    for (int x = x0; x < x1; ++x) {
-      int i = count++;
-      RayState& r = rays[i];
-      texelIndex[i] = y * stride + x;
+  for (bool more = true; more;) {
+    int activeCount = 0;
+    for (int i = 0; i < kMaxTileRays; ++i) {
+      tile::RayState& r = rays[i];
       tile::WorldRay ray;
-      arrays.vsViewRay(view, glm::ivec2(x, y), ray);
+      if (!source.next(arrays, ray, targets[i])) {
+        more = false;
+        break;
+      }
       tile::beginRay(arrays, r, ray);
-      if (!collectCandidates(arrays, r)) {
-        texels[texelIndex[i]] = arrays.vsShadowTexel(view, glm::ivec2(x, y));
+      if (!tile::collectCandidates(arrays, r)) {
+        source.traceAlone(arrays, targets[i], ray);
         continue;
       }
-      if (beginNextWalk(arrays, r)) {
+      if (tile::beginNextWalk(arrays, r)) {
         active[activeCount++] = i;
       } else {
         finish(i);
       }
     }
-  }
-  while (activeCount > 0) {
-    int kept = 0;
-    for (int k = 0; k < activeCount; ++k) {
-      int i = active[k];
-      RayState& r = rays[i];
-      int status = arrays.vsObjectWalkStep(r.walk);
-      if (status == gpu::VS_WALK_CONTINUE) {
-        active[kept++] = i;
-        continue;
+    while (activeCount > 0) {
+      int kept = 0;
+      for (int k = 0; k < activeCount; ++k) {
+        int i = active[k];
+        tile::RayState& r = rays[i];
+        int status = arrays.vsObjectWalkStep(r.walk);
+        if (status == gpu::VS_WALK_CONTINUE) {
+          active[kept++] = i;
+          continue;
+        }
+        if (status == gpu::VS_WALK_HIT) tile::recordHit(arrays, r, r.walk.tEnter, r.walk.v);
+        if (!(Source::kAnyHit && r.hit) && tile::beginNextWalk(arrays, r)) {
+          active[kept++] = i;
+        } else {
+          finish(i);
+        }
       }
-      if (status == gpu::VS_WALK_HIT) tile::recordHit(arrays, r, r.walk.tEnter, r.walk.v);
-      if (beginNextWalk(arrays, r)) {
-        active[kept++] = i;
-      } else {
-        finish(i);
-      }
+      activeCount = kept;
     }
-    activeCount = kept;
   }
 }
+
+template void traceInterleaved<rays::TexelSource>(gpu::SceneArrays&, rays::TexelSource&);
+template void traceInterleaved<rays::ClosestSource>(gpu::SceneArrays&, rays::ClosestSource&);
+template void traceInterleaved<rays::AnySource>(gpu::SceneArrays&, rays::AnySource&);
 
 }  // namespace vs

@@ -1,8 +1,10 @@
-// shadow_trace.comp: one invocation per shadow texel, running the portable traversal (compute/shared/traverse.h).
+// shadow_trace.comp: the portable traversal (compute/shared/traverse.h), one ray per invocation, for the ray kind
+// the pipeline is specialized for (VS_RAY_* in compute/shared/trace_interface.h).
 //
-// Dispatch: one per layer: x, y cover the layer's texel rectangle (8x8 workgroups). Each invocation offsets by
-// the rectangle's origin and skips texels outside it, so a partial re-trace touches only the texels it was
-// asked for.
+// Shadow texels: one dispatch per layer: x, y cover the layer's texel rectangle (8x8 workgroups). Each
+// invocation offsets by the rectangle's origin and skips texels outside it, so a partial re-trace touches only
+// the texels it was asked for. Closest- and any-hit rays: each workgroup takes VS_RAYS_PER_GROUP consecutive
+// rays of the ray buffer from push.rayOffset.
 //
 // How the scene is read matters on llvmpipe (lavapipe), which runs 8 invocations as the lanes of one SIMD
 // register: it loads from a storage buffer at a per-invocation index one lane at a time, behind a branch per
@@ -15,6 +17,7 @@
 #define VS_GLSL 1
 #include "voxel/brickmap_layout.h"
 #include "bvh/bvh_layout.h"
+#include "compute/shared/trace_rays.h"
 #include "compute/shared/trace_view.h"
 #include "compute/shared/trace_interface.h"
 
@@ -32,6 +35,11 @@ layout(std430, set = 0, binding = VS_BINDING_BRICKS) readonly buffer BrickChunk 
 brickChunks[VS_MAX_CHUNKS];
 layout(std430, set = 0, binding = VS_BINDING_OCCUPANCY) readonly buffer OccupancyChunk { uint data[]; }
 occupancyChunks[VS_MAX_CHUNKS];
+layout(std430, set = 0, binding = VS_BINDING_PAYLOAD) readonly buffer PayloadChunk { uint data[]; }
+payloadChunks[VS_MAX_CHUNKS];
+layout(std430, set = 0, binding = VS_BINDING_RAYS) readonly buffer RayBuffer { TraceRay rays[]; };
+layout(std430, set = 0, binding = VS_BINDING_HITS) writeonly buffer HitBuffer { RayHit hits[]; };
+layout(std430, set = 0, binding = VS_BINDING_OCCLUDED) writeonly buffer OccludedBuffer { uint occluded[]; };
 // Records as RGBA32UI texels (the VS_*_TEXELS of the layout headers), instance indices and node escapes
 // (Bvh::nodeEscapes) as R32UI.
 layout(set = 0, binding = VS_BINDING_OBJECTS) uniform usamplerBuffer objectTexels;
@@ -61,6 +69,8 @@ layout(constant_id = VS_SPEC_BOX_TABLE) const bool VS_BOX_TABLE = false;
 // constant, so a dispatch runs only its own view's depth code (llvmpipe would run both, lanes masked off).
 layout(constant_id = VS_SPEC_DEPTH_AT_CENTER) const bool VS_DEPTH_AT_CENTER = false;
 #define VS_VIEW_DEPTH_AT_CENTER(view) VS_DEPTH_AT_CENTER
+// Which ray kind this pipeline traces.
+layout(constant_id = VS_SPEC_RAY_KIND) const int VS_RAY_KIND = VS_RAY_SHADOW_TEXEL;
 
 // A chunk index differs between invocations, so each case indexes the block array with a constant:
 // no non-uniform descriptor indexing is needed.
@@ -80,21 +90,25 @@ Region vsReadRegion(uint i) { VS_CHUNK_READ(Region, regionChunks, push.regionShi
 Sector vsReadSector(uint i) { VS_CHUNK_READ(Sector, sectorChunks, push.sectorShift, i) }
 Brick vsReadBrick(uint i) { VS_CHUNK_READ(Brick, brickChunks, push.brickShift, i) }
 uint vsReadOccupancy(uint i) { VS_CHUNK_READ(uint, occupancyChunks, push.occupancyShift, i) }
+uint vsReadPayload(uint i) { VS_CHUNK_READ(uint, payloadChunks, push.payloadShift, i) }
 
 #define VS_READ_REGION_TABLE(i) vsReadRegionTable(i)
 #define VS_READ_REGIONS(i) vsReadRegion(i)
 #define VS_READ_SECTORS(i) vsReadSector(i)
 #define VS_READ_BRICKS(i) vsReadBrick(i)
 #define VS_READ_OCCUPANCY(i) vsReadOccupancy(i)
+#define VS_READ_PAYLOAD(i) vsReadPayload(i)
 #define VS_READ_BOX_CODE(i) texelFetch(boxTable, int(i)).x
 
-// The walk over the box table reads no array bases: that pipeline skips their fetches.
+// The walk over the box table reads no array bases: that pipeline skips their fetches, unless its rays look
+// up the hit voxel's material (closest hits) down the hierarchy.
+const bool VS_READ_BASES = !VS_BOX_TABLE || VS_RAY_KIND == VS_RAY_CLOSEST;
 ObjectRecord vsReadObject(uint i) {
   int t = int(i * VS_OBJECT_TEXELS);
   return ObjectRecord(ivec4(texelFetch(objectTexels, t)), ivec4(texelFetch(objectTexels, t + 1)),
                       ivec4(texelFetch(objectTexels, t + 2)), ivec4(texelFetch(objectTexels, t + 3)),
-                      VS_BOX_TABLE ? uvec4(0u) : texelFetch(objectTexels, t + 4),
-                      VS_BOX_TABLE ? uvec4(0u) : texelFetch(objectTexels, t + 5));
+                      VS_READ_BASES ? texelFetch(objectTexels, t + 4) : uvec4(0u),
+                      VS_READ_BASES ? texelFetch(objectTexels, t + 5) : uvec4(0u));
 }
 
 BvhNode vsReadNode(uint i) {
@@ -124,7 +138,18 @@ Affine vsReadAffine(int t) {
 #include "compute/shared/traverse.h"
 
 void main() {
-  ivec2 texel = currentView.rect.xy + ivec2(gl_GlobalInvocationID.xy);
-  if (texel.x >= currentView.rect.z || texel.y >= currentView.rect.w) return;
-  imageStore(shadowImage, ivec3(texel, int(push.layer)), vec4(vsShadowTexel(currentView, texel)));
+  if (VS_RAY_KIND == VS_RAY_SHADOW_TEXEL) {
+    ivec2 texel = currentView.rect.xy + ivec2(gl_GlobalInvocationID.xy);
+    if (texel.x >= currentView.rect.z || texel.y >= currentView.rect.w) return;
+    imageStore(shadowImage, ivec3(texel, int(push.layer)), vec4(vsShadowTexel(currentView, texel)));
+    return;
+  }
+  uint index = push.rayOffset + gl_WorkGroupID.x * VS_RAYS_PER_GROUP + gl_LocalInvocationIndex;
+  if (index >= push.rayCount) return;
+  WorldRay ray = vsTraceRayToWorld(rays[index]);
+  if (VS_RAY_KIND == VS_RAY_CLOSEST) {
+    hits[index] = vsClosestHit(ray);
+  } else {
+    occluded[index] = vsAnyHit(ray) ? 1u : 0u;
+  }
 }

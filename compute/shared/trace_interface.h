@@ -1,6 +1,6 @@
 // trace_interface.h: the trace shader's interface (compute/shaders/shadow_trace.comp), readable as C++ and GLSL:
-// the workgroup size, the binding numbers, the push-constant block and the specialization-constant ids, defined
-// once so that the shader and the host (compute/vulkan/vulkan_tracer.cpp) cannot drift apart.
+// the workgroup size, the binding numbers, the push-constant block, the specialization-constant ids and the
+// ray kinds, defined once so that the shader and the host (compute/vulkan/vulkan_tracer.cpp) cannot drift apart.
 #ifndef VOXSHADOW_TRACE_INTERFACE_H
 #define VOXSHADOW_TRACE_INTERFACE_H
 
@@ -16,7 +16,8 @@ const uint VS_TRACE_GROUP_HEIGHT = 8u;
 // The brickmap arrays may each span this many storage buffers (chunks of 2^shift elements), so that no binding
 // exceeds the device's maxStorageBufferRange (128 MiB on lavapipe); four cover 512 MiB per array there.
 const int VS_MAX_CHUNKS = 4;
-const uint VS_SPLIT_ARRAY_COUNT = 5u;  // region table, regions, sectors, bricks, occupancy: bindings 0..4
+// region table, regions, sectors, bricks, occupancy, payload: bindings 0..5
+const uint VS_SPLIT_ARRAY_COUNT = 6u;
 
 // Binding numbers of descriptor set 0.
 const uint VS_BINDING_REGION_TABLE = 0u;  // storage buffers, VS_MAX_CHUNKS each (VS_BINDING_REGION_TABLE + i for
@@ -24,20 +25,36 @@ const uint VS_BINDING_REGIONS = 1u;       // split array i)
 const uint VS_BINDING_SECTORS = 2u;
 const uint VS_BINDING_BRICKS = 3u;
 const uint VS_BINDING_OCCUPANCY = 4u;
-const uint VS_BINDING_OBJECTS = 5u;           // RGBA32UI texel buffer (VS_OBJECT_TEXELS per record)
-const uint VS_BINDING_INSTANCES = 6u;         // RGBA32UI texel buffer (VS_INSTANCE_TEXELS per record)
-const uint VS_BINDING_NODES = 7u;             // RGBA32UI texel buffer (VS_NODE_TEXELS per node)
-const uint VS_BINDING_INSTANCE_INDICES = 8u;  // R32UI texel buffer
-const uint VS_BINDING_VIEW = 9u;              // uniform buffer, dynamic offset: the dispatch's TraceView
-const uint VS_BINDING_SHADOW_IMAGE = 10u;     // R32F 2D-array storage image
-const uint VS_BINDING_BOX_TABLE = 11u;        // R32I texel buffer
-const uint VS_BINDING_NODE_ESCAPES = 12u;     // R32UI texel buffer
-const uint VS_BINDING_COUNT = 13u;
+const uint VS_BINDING_PAYLOAD = 5u;
+const uint VS_BINDING_OBJECTS = 6u;           // RGBA32UI texel buffer (VS_OBJECT_TEXELS per record)
+const uint VS_BINDING_INSTANCES = 7u;         // RGBA32UI texel buffer (VS_INSTANCE_TEXELS per record)
+const uint VS_BINDING_NODES = 8u;             // RGBA32UI texel buffer (VS_NODE_TEXELS per node)
+const uint VS_BINDING_INSTANCE_INDICES = 9u;  // R32UI texel buffer
+const uint VS_BINDING_VIEW = 10u;             // uniform buffer, dynamic offset: the dispatch's TraceView
+const uint VS_BINDING_SHADOW_IMAGE = 11u;     // R32F 2D-array storage image
+const uint VS_BINDING_BOX_TABLE = 12u;        // R32I texel buffer
+const uint VS_BINDING_NODE_ESCAPES = 13u;     // R32UI texel buffer
+const uint VS_BINDING_RAYS = 14u;             // storage buffer of TraceRay (closest- and any-hit dispatches)
+const uint VS_BINDING_HITS = 15u;             // storage buffer of RayHit (closest-hit dispatches)
+const uint VS_BINDING_OCCLUDED = 16u;         // storage buffer of uint (any-hit dispatches)
+const uint VS_BINDING_COUNT = 17u;
+// Storage buffers the shader declares: the split arrays' chunks and the three ray buffers. Within the 32 of
+// lavapipe's maxPerStageDescriptorStorageBuffers.
+const uint VS_STORAGE_BUFFER_COUNT = VS_SPLIT_ARRAY_COUNT * uint(VS_MAX_CHUNKS) + 3u;
 
-// Specialization-constant ids (each a bool; see the shader for what each removes).
-const int VS_SPEC_SPLIT_BINDINGS = 0;
-const int VS_SPEC_BOX_TABLE = 1;
-const int VS_SPEC_DEPTH_AT_CENTER = 2;
+// Specialization-constant ids (see the shader for what each removes).
+const int VS_SPEC_SPLIT_BINDINGS = 0;   // bool
+const int VS_SPEC_BOX_TABLE = 1;        // bool
+const int VS_SPEC_DEPTH_AT_CENTER = 2;  // bool
+const int VS_SPEC_RAY_KIND = 3;         // int: VS_RAY_*
+
+// The ray kinds of one dispatch.
+const int VS_RAY_SHADOW_TEXEL = 0;  // one texel of the view per invocation, into the shadow image
+const int VS_RAY_CLOSEST = 1;       // one TraceRay per invocation, its RayHit out
+const int VS_RAY_ANY = 2;           // one TraceRay per invocation, 1 out where its segment holds a solid voxel
+
+// Rays per workgroup of a closest- or any-hit dispatch: the 8 x 8 workgroup, read as one row.
+const uint VS_RAYS_PER_GROUP = VS_TRACE_GROUP_WIDTH * VS_TRACE_GROUP_HEIGHT;
 
 // The push-constant block of one dispatch.
 struct TracePush {
@@ -47,7 +64,10 @@ struct TracePush {
   uint sectorShift;
   uint brickShift;
   uint occupancyShift;
-  uint layer;  // the image layer this dispatch writes
+  uint payloadShift;
+  uint layer;      // the image layer a shadow-texel dispatch writes
+  uint rayOffset;  // the first ray of a closest- or any-hit dispatch
+  uint rayCount;   // rays in the whole buffer
 };
 
 VS_NAMESPACE_END
@@ -56,16 +76,21 @@ VS_NAMESPACE_END
 #include <compare>
 
 namespace vs::gpu {
-VS_LAYOUT_CHECK(TracePush, 28);
+VS_LAYOUT_CHECK(TracePush, 40);
 VS_OFFSET_CHECK(TracePush, regionTableShift, 4);
-VS_OFFSET_CHECK(TracePush, occupancyShift, 20);
-VS_OFFSET_CHECK(TracePush, layer, 24);
+VS_OFFSET_CHECK(TracePush, payloadShift, 24);
+VS_OFFSET_CHECK(TracePush, layer, 28);
+VS_OFFSET_CHECK(TracePush, rayOffset, 32);
+VS_OFFSET_CHECK(TracePush, rayCount, 36);
+
+enum class RayKind : int { ShadowTexel = VS_RAY_SHADOW_TEXEL, Closest = VS_RAY_CLOSEST, Any = VS_RAY_ANY };
 
 // A trace pipeline variant, by its named options (the specialization constants above).
 struct TracePipelineOptions {
   bool splitBindings = false;  // some brickmap array spans more than one buffer
   bool boxTable = false;       // the object walk reads the box table instead of the brickmap hierarchy
   bool depthAtCenter = false;  // the view's depth point is the hit voxel's centre
+  RayKind rayKind = RayKind::ShadowTexel;
   friend auto operator<=>(const TracePipelineOptions&, const TracePipelineOptions&) = default;
 };
 }  // namespace vs::gpu

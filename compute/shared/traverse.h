@@ -1,7 +1,7 @@
 // traverse.h: the portable shadow-ray traversal, one ray through the instance BVH and each object's brickmap.
 //
 // This is a *body*: it is included where the scene arrays are in scope under these names:
-//   regionTable (uint), regions (Region), sectors (Sector), bricks (Brick), occupancy (uint),
+//   regionTable (uint), regions (Region), sectors (Sector), bricks (Brick), occupancy (uint), payload (uint),
 //   objects (ObjectRecord), instances (InstanceRecord), nodes (BvhNode), instanceIndices (uint),
 //   nodeEscapes (uint, Bvh::nodeEscapes), nodeCount (uint).
 // GLSL reads them from storage and texel buffers (and nodeCount from a push constant); C++ includes this body inside a
@@ -38,6 +38,9 @@
 #endif
 #ifndef VS_READ_OCCUPANCY
 #define VS_READ_OCCUPANCY(i) occupancy[i]
+#endif
+#ifndef VS_READ_PAYLOAD
+#define VS_READ_PAYLOAD(i) payload[i]
 #endif
 // Whether a view's depth is taken at the hit voxel's centre; an includer that compiles one view kind at a time
 // defines it as a constant.
@@ -185,13 +188,16 @@ bool vsNearPlane(float x, float scale) {
   return abs(x - floor(x + 0.5f)) <= scale * (1.0f / 65536.0f);
 }
 
+// 1 / d, or 0 where the ray runs parallel to the axis (d == 0): the walk's inverse direction.
+float vsInverseAxis(float d) { return d == 0.0f ? 0.0f : 1.0f / d; }
+
 // One axis of a slab test against [lo, hi]: narrows [t0, t1] to where the ray lies between the two planes and
 // gives 1/d (0 where d is 0). A ray parallel to the planes is kept when lo <= o and o < hi (o <= hi when
 // `hiExclusive` is false).
 bool vsClipAxis(float o, float d, float lo, float hi, bool hiExclusive, VS_INOUT(float) t0, VS_INOUT(float) t1,
                 VS_INOUT(float) invD) {
   bool parallel = d == 0.0f;
-  invD = parallel ? 0.0f : 1.0f / d;
+  invD = vsInverseAxis(d);
   VS_PRECISE float tLo = (lo - o) * invD;
   VS_PRECISE float tHi = (hi - o) * invD;
   t0 = parallel ? t0 : max(t0, min(tLo, tHi));
@@ -546,6 +552,17 @@ float vsWorldT(float tLocal, float tBase) {
   return world;
 }
 
+// The end, in an instance's re-based t, of the walk that looks for a hit closer than the best so far (tBest,
+// `hit` whether there is one): the ray's own end before any hit; after one, tBest's local t moved up by more
+// than the rounding of vsLocalT and vsWorldT (2^-21 of tBest, four ulps), so that a voxel whose world t rounds
+// to tBest is found whatever order the instances are walked in, and vsCloserHit alone decides the tie. What the
+// slack lets in beyond tBest, vsCloserHit rejects.
+float vsWalkEnd(bool hit, float tBest, float tMax, float tBase) {
+  VS_PRECISE float local = (hit ? tBest : tMax) - tBase;
+  VS_PRECISE float widened = local + abs(tBest) * (1.0f / 2097152.0f);
+  return hit ? widened : local;
+}
+
 // The closest-hit rule of every tracer: a hit at t on `instance` replaces the best so far (tBest on
 // instanceBest, `hit` whether there is one) when it is nearer, or as near on a lower instance index.
 bool vsCloserHit(bool hit, float t, uint instance, float tBest, uint instanceBest) {
@@ -592,7 +609,7 @@ bool vsTraceClosest(WorldRay ray, VS_INOUT(float) tHit, VS_INOUT(uint) instanceH
     float t = VS_T_INFINITY;
     ivec3 v = ivec3(0);
     if (vsTraceObject(VS_READ_INSTANCE_OBJECT(instanceIndex), lo, ld, vsLocalT(ray.tMin, tBase),
-                      vsLocalT(tBest, tBase), t, v)) {
+                      vsWalkEnd(hit, tBest, ray.tMax, tBase), t, v)) {
       float tWorld = vsWorldT(t, tBase);
       if (vsCloserHit(hit, tWorld, instanceIndex, tBest, instanceHit)) {
         tBest = tWorld;
@@ -686,3 +703,120 @@ float vsShadowTexel(TraceView view, ivec2 texel) {
   bool hit = vsRayIsFinite(ray) && vsTraceClosest(ray, tHit, instanceHit, voxel);
   return vsTexelValue(view, ray, hit, tHit, instanceHit, voxel);
 }
+
+// Whether any solid voxel lies on a world ray within [tMin, tMax]: the walks of vsTraceClosest, over the whole
+// span, ending at the first voxel any of them finds. It says true exactly when vsTraceClosest finds a hit.
+bool vsTraceAny(WorldRay ray) {
+  uint node = 0u;
+  uint entry = 0u;
+  uint entryEnd = 0u;
+  vec3 o = vsCullOrigin(ray);
+  float pad = vsCullPad(ray);
+  bool hit = false;
+  bool more = vsNextLeafEntry(o, ray.d, pad, ray.tMin, ray.tMax, node, entry, entryEnd);
+  while (more) {
+    uint instanceIndex = VS_READ_INSTANCE_INDEX(entry);
+    entry += 1u;
+    float tBase = vsInstanceBaseT(ray, instanceIndex);
+    vec3 lo = vec3(0.0f);
+    vec3 ld = vec3(0.0f);
+    vsInstanceRay(ray, instanceIndex, tBase, lo, ld);
+    float t = VS_T_INFINITY;
+    ivec3 v = ivec3(0);
+    hit = vsTraceObject(VS_READ_INSTANCE_OBJECT(instanceIndex), lo, ld, vsLocalT(ray.tMin, tBase),
+                        vsLocalT(ray.tMax, tBase), t, v);
+    more = !hit && vsNextLeafEntry(o, ray.d, pad, ray.tMin, ray.tMax, node, entry, entryEnd);
+  }
+  return hit;
+}
+
+// The palette index of voxel v of an object (1..255), 0 where v is empty or outside the object, read down the
+// hierarchy to the brick's payload (a material for the whole brick, or one byte per voxel in occupancy-bit order).
+uint vsVoxelMaterial(uint objectIndex, ivec3 v) {
+  ObjectRecord obj = VS_READ_OBJECT(objectIndex);
+  ivec3 vmin = ivec3(obj.voxelMin);
+  ivec3 vmax = ivec3(obj.voxelMax);
+  if (v.x < vmin.x || v.y < vmin.y || v.z < vmin.z || v.x >= vmax.x || v.y >= vmax.y || v.z >= vmax.z) return 0u;
+  ivec3 r = (v >> VS_REGION_LOG2) - ivec3(obj.regionOrigin);
+  uint slot = VS_READ_REGION_TABLE(obj.bases.x + uint(r.x + obj.regionDims.x * (r.y + obj.regionDims.y * r.z)));
+  if (slot == VS_EMPTY_SLOT) return 0u;
+  Region region = VS_READ_REGIONS(obj.bases.y + slot);
+  uint sectorBit = vsChildBit(v, VS_SECTOR_LOG2);
+  if (!vsTestBit(region.sectorMask, sectorBit)) return 0u;
+  Sector sector = VS_READ_SECTORS(obj.bases.z + region.firstSector + vsRankBelow(region.sectorMask, sectorBit));
+  uint brickBit = vsChildBit(v, VS_BRICK_LOG2);
+  if (!vsTestBit(sector.brickMask, brickBit)) return 0u;
+  Brick brick = VS_READ_BRICKS(obj.bases.w + sector.firstBrick + vsRankBelow(sector.brickMask, brickBit));
+  if ((brick.payload & VS_UNIFORM_PAYLOAD) != 0u) return brick.payload & 0xffu;
+  uint voxelBit = vsChildBit(v, VS_CELL_LOG2) * 8u + uint((v.x & 1) + 2 * (v.y & 1) + 4 * (v.z & 1));
+  uint word = VS_READ_PAYLOAD(obj.bases2.y + brick.payload + (voxelBit >> 2u));
+  return (word >> ((voxelBit & 3u) * 8u)) & 0xffu;
+}
+
+// The face through which the brick-space ray o + t*d (1/d = invD, vsInverseAxis) entered voxel v, for a walk
+// that began at tStart: the voxel's near plane crossed last. In the canonical voxel order planes crossed at the
+// same t are taken z, then y, then x, so on a tie the lowest axis is the one crossed last. VS_FACE_NONE when
+// every near plane lies before tStart: the walk began inside the voxel. It depends on the ray and the voxel
+// only, so every backend derives it after the walk, from the same values.
+uint vsEntryFace(vec3 o, vec3 d, vec3 invD, ivec3 v, float tStart) {
+  VS_PRECISE float tx = (float(d.x > 0.0f ? v.x : v.x + 1) - o.x) * invD.x;
+  VS_PRECISE float ty = (float(d.y > 0.0f ? v.y : v.y + 1) - o.y) * invD.y;
+  VS_PRECISE float tz = (float(d.z > 0.0f ? v.z : v.z + 1) - o.z) * invD.z;
+  tx = d.x != 0.0f ? tx : -VS_T_INFINITY;
+  ty = d.y != 0.0f ? ty : -VS_T_INFINITY;
+  tz = d.z != 0.0f ? tz : -VS_T_INFINITY;
+  float tLast = max(max(tx, ty), tz);
+  uint axis = tx == tLast ? 0u : (ty == tLast ? 1u : 2u);
+  float dAxis = axis == 0u ? d.x : (axis == 1u ? d.y : d.z);
+  uint face = axis * 2u + (dAxis > 0.0f ? 0u : 1u);
+  return tLast < tStart ? VS_FACE_NONE : face;
+}
+
+// The hit record of a world ray's closest hit (vsTraceClosest's results): the entry face and the material are
+// derived from the hit instance's re-based ray and the voxel, as every backend's walk saw them.
+RayHit vsHitRecord(WorldRay ray, bool hit, float tHit, uint instanceHit, ivec3 voxel) {
+  RayHit h;
+  h.voxel = ivec4(0);
+  h.t = ray.tMax;
+  h.instance = 0u;
+  h.material = 0u;
+  h.hit = 0u;
+  if (hit) {
+    float tBase = vsInstanceBaseT(ray, instanceHit);
+    vec3 lo = vec3(0.0f);
+    vec3 ld = vec3(0.0f);
+    vsInstanceRay(ray, instanceHit, tBase, lo, ld);
+    vec3 invD = vec3(vsInverseAxis(ld.x), vsInverseAxis(ld.y), vsInverseAxis(ld.z));
+    uint face = vsEntryFace(lo, ld, invD, voxel, vsLocalT(ray.tMin, tBase));
+    h.voxel = ivec4(voxel, int(face));
+    h.t = tHit;
+    h.instance = instanceHit;
+    h.material = vsVoxelMaterial(VS_READ_INSTANCE_OBJECT(instanceHit), voxel);
+    h.hit = 1u;
+  }
+  return h;
+}
+
+// The world ray of a caller's TraceRay.
+WorldRay vsTraceRayToWorld(TraceRay r) {
+  WorldRay ray;
+  ray.eyeHigh = vec3(r.originHigh);
+  ray.eyeLow = vec3(r.originLow);
+  ray.start = vec3(0.0f);
+  ray.d = vec3(r.direction);
+  ray.tMin = r.originHigh.w;
+  ray.tMax = r.originLow.w;
+  return ray;
+}
+
+// The closest-hit record of one ray.
+RayHit vsClosestHit(WorldRay ray) {
+  float tHit = ray.tMax;
+  uint instanceHit = 0u;
+  ivec3 voxel = ivec3(0);
+  bool hit = vsRayIsFinite(ray) && vsTraceClosest(ray, tHit, instanceHit, voxel);
+  return vsHitRecord(ray, hit, tHit, instanceHit, voxel);
+}
+
+// Whether one ray's segment holds any solid voxel.
+bool vsAnyHit(WorldRay ray) { return vsRayIsFinite(ray) && vsTraceAny(ray); }

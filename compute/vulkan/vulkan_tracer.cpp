@@ -18,21 +18,25 @@
 namespace vs {
 namespace {
 
-constexpr std::uint32_t kSplitBindings = gpu::VS_SPLIT_ARRAY_COUNT;  // bindings 0..4
-static_assert(gpu::VS_BINDING_REGION_TABLE == 0u && gpu::VS_BINDING_OCCUPANCY == kSplitBindings - 1u,
+constexpr std::uint32_t kSplitBindings = gpu::VS_SPLIT_ARRAY_COUNT;  // bindings 0..5
+static_assert(gpu::VS_BINDING_REGION_TABLE == 0u && gpu::VS_BINDING_PAYLOAD == kSplitBindings - 1u,
               "split array i is bound at binding i");
 constexpr std::uint32_t kObjectsBinding = gpu::VS_BINDING_OBJECTS, kInstancesBinding = gpu::VS_BINDING_INSTANCES;
 constexpr std::uint32_t kNodesBinding = gpu::VS_BINDING_NODES, kIndicesBinding = gpu::VS_BINDING_INSTANCE_INDICES;
 constexpr std::uint32_t kViewsBinding = gpu::VS_BINDING_VIEW, kImageBinding = gpu::VS_BINDING_SHADOW_IMAGE;
 constexpr std::uint32_t kBoxCodesBinding = gpu::VS_BINDING_BOX_TABLE, kEscapesBinding = gpu::VS_BINDING_NODE_ESCAPES;
-constexpr const char* kSplitNames[kSplitArrayCount] = {"regionTable", "regions", "sectors", "bricks", "occupancy"};
+constexpr const char* kSplitNames[kSplitArrayCount] = {"regionTable", "regions", "sectors", "bricks", "occupancy",
+                                                       "payload"};
+// The ray buffers, bound as single storage buffers.
+constexpr std::uint32_t kRayBindings[3] = {gpu::VS_BINDING_RAYS, gpu::VS_BINDING_HITS, gpu::VS_BINDING_OCCLUDED};
+bool isRayBinding(std::uint32_t b) { return b == kRayBindings[0] || b == kRayBindings[1] || b == kRayBindings[2]; }
 
 using gpu::TracePush;
 using gpu::TracePipelineOptions;
 
 // The shift fields of the push block, in split-array order.
 std::uint32_t* pushShifts(TracePush& push) { return &push.regionTableShift; }
-static_assert(offsetof(TracePush, occupancyShift) - offsetof(TracePush, regionTableShift) ==
+static_assert(offsetof(TracePush, payloadShift) - offsetof(TracePush, regionTableShift) ==
                   (kSplitArrayCount - 1) * sizeof(std::uint32_t),
               "the shifts are consecutive, in split-array order");
 
@@ -126,11 +130,13 @@ struct VulkanTracer::Impl {
   vk::Buffer viewBuffer;
   vk::Buffer readback;
   vk::Image image;
+  // Closest- and any-hit dispatches: the rays in, the results out (host-visible, grown as needed).
+  vk::Buffer rayBuffer, hitBuffer, occludedBuffer;
 
   explicit Impl(const VulkanOptions& o)
       : options(o), context(VulkanContextOptions{o.deviceIndex, o.deviceName, o.validation}) {
     const VulkanDeviceInfo& info = context.info();
-    std::uint32_t needed = kSplitArrayCount * kMaxBuffersPerArray;
+    std::uint32_t needed = gpu::VS_STORAGE_BUFFER_COUNT;
     if (info.maxPerStageStorageBuffers < needed)
       throwRuntime("Vulkan device " + info.name + " allows " + std::to_string(info.maxPerStageStorageBuffers) +
                    " storage buffers per shader stage (maxPerStageDescriptorStorageBuffers); the trace shader needs " +
@@ -165,7 +171,7 @@ struct VulkanTracer::Impl {
     for (std::uint32_t b = 0; b < gpu::VS_BINDING_COUNT; ++b) {
       VkDescriptorSetLayoutBinding lb{};
       lb.binding = b;
-      lb.descriptorType = b < kSplitBindings     ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
+      lb.descriptorType = b < kSplitBindings || isRayBinding(b) ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
                           : b == kImageBinding ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE
                           : b == kViewsBinding ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC
                                                : VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
@@ -203,7 +209,7 @@ struct VulkanTracer::Impl {
     pipelineStats.cacheError = cache->lastError();
 
     std::array<VkDescriptorPoolSize, 4> sizes{{
-        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kSplitBindings * kMaxBuffersPerArray},
+        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::VS_STORAGE_BUFFER_COUNT},
         {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1},
         {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, kRecordArrayCount + 1},
         {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC, 1},
@@ -233,12 +239,14 @@ struct VulkanTracer::Impl {
   }
 
   vk::UniquePipeline makePipeline(const TracePipelineOptions& options) {
-    VkBool32 values[3] = {options.splitBindings ? VK_TRUE : VK_FALSE, options.boxTable ? VK_TRUE : VK_FALSE,
-                          options.depthAtCenter ? VK_TRUE : VK_FALSE};
-    VkSpecializationMapEntry entries[3] = {{gpu::VS_SPEC_SPLIT_BINDINGS, 0, sizeof(VkBool32)},
-                                           {gpu::VS_SPEC_BOX_TABLE, sizeof(VkBool32), sizeof(VkBool32)},
-                                           {gpu::VS_SPEC_DEPTH_AT_CENTER, 2 * sizeof(VkBool32), sizeof(VkBool32)}};
-    VkSpecializationInfo spec{3, entries, sizeof values, values};
+    // Four 32-bit words: three VkBool32 and the ray kind's int.
+    std::uint32_t values[4] = {options.splitBindings ? VK_TRUE : VK_FALSE, options.boxTable ? VK_TRUE : VK_FALSE,
+                               options.depthAtCenter ? VK_TRUE : VK_FALSE, std::uint32_t(options.rayKind)};
+    VkSpecializationMapEntry entries[4] = {{gpu::VS_SPEC_SPLIT_BINDINGS, 0, sizeof(VkBool32)},
+                                           {gpu::VS_SPEC_BOX_TABLE, 4, sizeof(VkBool32)},
+                                           {gpu::VS_SPEC_DEPTH_AT_CENTER, 8, sizeof(VkBool32)},
+                                           {gpu::VS_SPEC_RAY_KIND, 12, sizeof(std::int32_t)}};
+    VkSpecializationInfo spec{4, entries, sizeof values, values};
     auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
     ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
@@ -328,6 +336,7 @@ struct VulkanTracer::Impl {
         {s.sectors.data(), s.sectors.size(), sizeof(gpu::Sector)},
         {s.bricks.data(), s.bricks.size(), sizeof(gpu::Brick)},
         {s.occupancy.data(), s.occupancy.size(), sizeof(std::uint32_t)},
+        {s.payload.data(), s.payload.size(), sizeof(std::uint32_t)},
     }};
     const std::array<HostArray, kRecordArrayCount> wholeSrc = recordArrays(s);
 
@@ -401,7 +410,7 @@ struct VulkanTracer::Impl {
     if (!uploaded) throwRuntime("VulkanTracer::uploadInstances called before upload()");
     const SceneArrays s = SceneArrays::from(scene);
     const std::uint64_t voxelArrays[kSplitArrayCount] = {s.regionTable.size(), s.regions.size(), s.sectors.size(),
-                                                         s.bricks.size(), s.occupancy.size()};
+                                                         s.bricks.size(), s.occupancy.size(), s.payload.size()};
     bool same = whole[0].elements == s.objects.size();
     for (int a = 0; a < kSplitArrayCount; ++a) same = same && split[a].elements == voxelArrays[a];
     if (!same)
@@ -415,7 +424,7 @@ struct VulkanTracer::Impl {
 
   void writeDescriptors() {
     std::vector<VkDescriptorBufferInfo> infos;
-    infos.reserve(kSplitBindings * kMaxBuffersPerArray + 1);
+    infos.reserve(gpu::VS_STORAGE_BUFFER_COUNT + 1);  // pointers into it are kept: no reallocation
     std::vector<VkWriteDescriptorSet> writes;
     auto bufferInfo = [&](const vk::Buffer* b) {
       const vk::Buffer& use = b ? *b : placeholder;
@@ -465,6 +474,17 @@ struct VulkanTracer::Impl {
       w.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
       w.pTexelBufferView = &texelViews[t];
       writes.push_back(w);
+    }
+    const vk::Buffer* rayBuffers[3] = {&rayBuffer, &hitBuffer, &occludedBuffer};
+    for (int r = 0; r < 3; ++r) {
+      VkDescriptorBufferInfo* info = bufferInfo(rayBuffers[r]->buffer ? rayBuffers[r] : nullptr);
+      auto rw = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+      rw.dstSet = descriptorSet;
+      rw.dstBinding = kRayBindings[r];
+      rw.descriptorCount = 1;
+      rw.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      rw.pBufferInfo = info;
+      writes.push_back(rw);
     }
     VkDescriptorImageInfo imageInfo{VK_NULL_HANDLE, image.view.get(), VK_IMAGE_LAYOUT_GENERAL};
     auto w = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
@@ -643,24 +663,110 @@ struct VulkanTracer::Impl {
     }
 
     if (queryPool) {
-      std::vector<std::uint64_t> ts(layerCount + 1, 0);
-      vk::check(vkGetQueryPoolResults(context.device(), queryPool.get(), 0, layerCount + 1,
-                                      ts.size() * sizeof(std::uint64_t), ts.data(), sizeof(std::uint64_t),
-                                      VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
-                "vkGetQueryPoolResults");
-      std::uint64_t mask = info.timestampValidBits >= 64 ? ~std::uint64_t(0)
-                                                         : (std::uint64_t(1) << info.timestampValidBits) - 1;
-      auto ms = [&](std::uint64_t a, std::uint64_t b) {
-        return double(((b & mask) - (a & mask)) & mask) * double(info.timestampPeriodNs) * 1e-6;
-      };
-      stats.gpuMs = ms(ts[0], ts[layerCount]);
-      stats.viewGpuMs.resize(layerCount);
-      for (std::uint32_t i = 0; i < layerCount; ++i) stats.viewGpuMs[i] = ms(ts[i], ts[i + 1]);
+      stats.viewGpuMs = timestampMs(layerCount);
+      stats.gpuMs = 0.0;
+      for (double ms : stats.viewGpuMs) stats.gpuMs += ms;
     }
     stats.wallMs = msSince(t0);
     double ms = stats.gpuMs > 0.0 ? stats.gpuMs : stats.wallMs;
     if (ms > 0.0) stats.mraysPerSecond = double(stats.rays) / (ms * 1e3);
     return stats;
+  }
+
+  // Closest- or any-hit rays: the rays go up through a host-visible buffer, each workgroup takes
+  // VS_RAYS_PER_GROUP of them, and the results come back the same way; `out` receives rays.size() results of
+  // `resultBytes` each.
+  TraceStats traceRays(gpu::RayKind kind, std::span<const gpu::TraceRay> rays, void* out, std::size_t resultBytes) {
+    auto t0 = std::chrono::steady_clock::now();
+    if (!uploaded) throwRuntime("VulkanTracer: rays traced before upload()");
+    TraceStats stats;
+    stats.rays = rays.size();
+    if (rays.empty()) {
+      stats.wallMs = msSince(t0);
+      return stats;
+    }
+    if (rays.size() > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
+      throwBadInput("trace of " + std::to_string(rays.size()) + " rays: more than 2^32 in one call");
+    const VulkanDeviceInfo& info = context.info();
+    const VkDeviceSize rayBytes = rays.size() * sizeof(gpu::TraceRay);
+    const VkDeviceSize outBytes = rays.size() * resultBytes;
+    auto ensure = [&](vk::Buffer& b, VkDeviceSize bytes) {
+      if (!b.buffer || b.size < bytes || b.size > 4 * bytes) {
+        b = vk::Buffer{};
+        b = context.createHostBuffer(bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+      }
+    };
+    ensure(rayBuffer, rayBytes);
+    vk::Buffer& results = kind == gpu::RayKind::Closest ? hitBuffer : occludedBuffer;
+    ensure(results, outBytes);
+    std::memcpy(rayBuffer.mapped, rays.data(), rayBytes);
+    // The shadow image and the view are bound whatever the kind: a placeholder where no trace made them yet.
+    if (!image.image) image = context.createStorageImage(1, 1, 1);
+    if (!viewBuffer.buffer) {
+      viewBuffer = context.createHostBuffer(viewStride, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+      std::memset(viewBuffer.mapped, 0, viewStride);
+    }
+    writeDescriptors();
+
+    const std::uint64_t groups = (rays.size() + gpu::VS_RAYS_PER_GROUP - 1) / gpu::VS_RAYS_PER_GROUP;
+    const std::uint64_t groupsPerDispatch = info.maxWorkGroupCount[0];
+    VkPipeline pipe = variant(TracePipelineOptions{.splitBindings = splitBindings(),
+                                                   .boxTable = boxTableUploaded,
+                                                   .depthAtCenter = false,
+                                                   .rayKind = kind});
+    TracePush push{};
+    push.nodeCount = nodeCount;
+    for (int a = 0; a < kSplitArrayCount; ++a) pushShifts(push)[a] = split[a].shift;
+    push.rayCount = static_cast<std::uint32_t>(rays.size());
+    ensureQueries(2);
+    context.submitAndWait([&](VkCommandBuffer cmd) {
+      auto before = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+      before.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_WRITE_BIT;
+      before.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
+      if (queryPool) {
+        vkCmdResetQueryPool(cmd, queryPool.get(), 0, 2);
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queryPool.get(), 0);
+      }
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
+      std::uint32_t viewOffset = 0;
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet, 1,
+                              &viewOffset);
+      for (std::uint64_t first = 0; first < groups; first += groupsPerDispatch) {
+        std::uint64_t n = std::min(groupsPerDispatch, groups - first);
+        push.rayOffset = static_cast<std::uint32_t>(first * gpu::VS_RAYS_PER_GROUP);
+        vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+        vkCmdDispatch(cmd, static_cast<std::uint32_t>(n), 1, 1);
+      }
+      if (queryPool) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queryPool.get(), 1);
+      auto toHost = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+      toHost.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+      toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
+                           nullptr, 0, nullptr);
+    });
+    std::memcpy(out, results.mapped, outBytes);
+    if (queryPool) stats.gpuMs = timestampMs(1)[0];
+    stats.wallMs = msSince(t0);
+    double ms = stats.gpuMs > 0.0 ? stats.gpuMs : stats.wallMs;
+    if (ms > 0.0) stats.mraysPerSecond = double(stats.rays) / (ms * 1e3);
+    return stats;
+  }
+
+  // Milliseconds between timestamp 0 and each of the next `count` (vkGetQueryPoolResults, waiting).
+  std::vector<double> timestampMs(std::uint32_t count) {
+    const VulkanDeviceInfo& info = context.info();
+    std::vector<std::uint64_t> ts(count + 1, 0);
+    vk::check(vkGetQueryPoolResults(context.device(), queryPool.get(), 0, count + 1, ts.size() * sizeof(std::uint64_t),
+                                    ts.data(), sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+              "vkGetQueryPoolResults");
+    std::uint64_t mask =
+        info.timestampValidBits >= 64 ? ~std::uint64_t(0) : (std::uint64_t(1) << info.timestampValidBits) - 1;
+    std::vector<double> ms(count);
+    for (std::uint32_t i = 0; i < count; ++i)
+      ms[i] = double(((ts[i + 1] & mask) - (ts[i] & mask)) & mask) * double(info.timestampPeriodNs) * 1e-6;
+    return ms;
   }
 };
 
@@ -672,6 +778,18 @@ void VulkanTracer::upload(const SceneArrays& scene) { impl_->upload(scene); }
 void VulkanTracer::uploadInstances(const SceneData& scene) { impl_->uploadInstances(scene); }
 TraceStats VulkanTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) {
   return impl_->trace(views, layers);
+}
+TraceStats VulkanTracer::traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits) {
+  if (hits.size() != rays.size())
+    throwBadInput("traceClosest: " + std::to_string(hits.size()) + " hit records for " + std::to_string(rays.size()) +
+                  " rays");
+  return impl_->traceRays(gpu::RayKind::Closest, rays, hits.data(), sizeof(gpu::RayHit));
+}
+TraceStats VulkanTracer::traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded) {
+  if (occluded.size() != rays.size())
+    throwBadInput("traceAny: " + std::to_string(occluded.size()) + " results for " + std::to_string(rays.size()) +
+                  " rays");
+  return impl_->traceRays(gpu::RayKind::Any, rays, occluded.data(), sizeof(std::uint32_t));
 }
 const VulkanDeviceInfo& VulkanTracer::device() const { return impl_->context.info(); }
 const PipelineStats& VulkanTracer::pipelineStats() const { return impl_->pipelineStats; }

@@ -40,6 +40,7 @@ struct SceneArrays {
   std::span<const gpu::Sector> sectors;
   std::span<const gpu::Brick> bricks;
   std::span<const std::uint32_t> occupancy;
+  std::span<const std::uint32_t> payload;
   std::span<const gpu::ObjectRecord> objects;
   std::span<const gpu::InstanceRecord> instances;
   std::span<const gpu::BvhNode> nodes;
@@ -47,14 +48,14 @@ struct SceneArrays {
   std::span<const std::uint32_t> nodeEscapes;  // one per node (Bvh::nodeEscapes)
 
   static SceneArrays from(const SceneData& scene) {
-    return {scene.regionTable, scene.regions, scene.sectors,      scene.bricks,
-            scene.occupancy,   scene.objects, scene.instances,    scene.bvh.nodes(),
-            scene.bvh.instanceIndices(),      scene.bvh.nodeEscapes()};
+    return {scene.regionTable, scene.regions,   scene.sectors,           scene.bricks,
+            scene.occupancy,   scene.payload,   scene.objects,           scene.instances,
+            scene.bvh.nodes(), scene.bvh.instanceIndices(), scene.bvh.nodeEscapes()};
   }
 };
 
 // The arrays the shader may split over several bindings, in binding order.
-enum class SplitArray { RegionTable = 0, Regions, Sectors, Bricks, Occupancy };
+enum class SplitArray { RegionTable = 0, Regions, Sectors, Bricks, Occupancy, Payload };
 inline constexpr int kSplitArrayCount = int(gpu::VS_SPLIT_ARRAY_COUNT);
 // Bindings per split array in the shader (compute/shared/trace_interface.h).
 inline constexpr int kMaxBuffersPerArray = gpu::VS_MAX_CHUNKS;
@@ -109,6 +110,11 @@ class VulkanTracer {
   // Preconditions: upload() was called; views[i].info.xy > 0; 0 <= rect.x0 <= rect.x1 <= width, same for y.
   // Throws vs::Error(BadInput) when a view breaks them.
   TraceStats trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers);
+  // Closest-hit records of rays[i] into hits[i], and any-hit answers into occluded[i] (1 where the segment
+  // holds a solid voxel), as the CPU backend gives them bit for bit. One submission and one readback per call.
+  // Preconditions: upload() was called; the output is as long as `rays` (else vs::Error(BadInput)).
+  TraceStats traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits);
+  TraceStats traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded);
 
   const VulkanDeviceInfo& device() const;
   const PipelineStats& pipelineStats() const;

@@ -64,9 +64,10 @@ bool walkCells(const glm::dvec3& o, const glm::dvec3& d, double t0, double t1, i
   return false;
 }
 
-// Length in t of the ray inside voxel v grown by `grow` on every side (negative: no intersection).
-double spanInVoxel(const glm::dvec3& o, const glm::dvec3& d, glm::ivec3 v, double grow) {
-  double t0 = -kInf, t1 = kInf;
+// Length in t of the ray's segment [tMin, tMax] inside voxel v grown by `grow` on every side (negative: no
+// intersection).
+double spanInVoxel(const glm::dvec3& o, const glm::dvec3& d, double tMin, double tMax, glm::ivec3 v, double grow) {
+  double t0 = tMin, t1 = tMax;
   if (!clip(o, d, glm::dvec3(v) - grow, glm::dvec3(v) + 1.0 + grow, t0, t1)) return -1.0;
   return t1 - t0;
 }
@@ -133,6 +134,19 @@ ExactHit ExactReference::trace(const ExactRay& ray) const {
       best.instance = i;
       best.voxel = voxel;
       best.voxelsPerT = glm::length(d);
+      // Near-plane t per axis; the start counts as one more "plane" (a ray that begins inside the voxel).
+      double planes[4];
+      for (int a = 0; a < 3; ++a)
+        planes[a] = d[a] == 0.0 ? -1e300 : (double(d[a] > 0.0 ? voxel[a] : voxel[a] + 1) - o[a]) / d[a];
+      planes[3] = ray.tMin;
+      int last = 3;
+      for (int a = 0; a < 3; ++a)
+        if (planes[a] >= planes[last]) last = a;
+      double runnerUp = -1e300;
+      for (int a = 0; a < 4; ++a)
+        if (a != last) runnerUp = std::max(runnerUp, planes[a]);
+      best.face = last == 3 ? 6u : unsigned(2 * last + (d[last] > 0.0 ? 0 : 1));
+      best.faceMargin = (planes[last] - runnerUp) * best.voxelsPerT;
     }
   }
   if (!best.hit) best.t = ray.tMax;
@@ -155,11 +169,20 @@ bool ExactReference::grazesNear(const ExactRay& ray, double t, double slackVoxel
         for (int x = lo.x; x <= hi.x; ++x) {
           glm::ivec3 v(x, y, z);
           if (!p.brickmap->isSolid(v)) continue;
-          if (spanInVoxel(o, d, v, tolerance) < 0.0) continue;  // passes farther away
-          if (spanInVoxel(o, d, v, 0.0) * len <= tolerance) return true;
+          if (spanInVoxel(o, d, ray.tMin, ray.tMax, v, tolerance) < 0.0) continue;  // passes farther away
+          if (spanInVoxel(o, d, ray.tMin, ray.tMax, v, 0.0) * len <= tolerance) return true;
         }
   }
   return false;
+}
+
+double ExactReference::entryT(const ExactRay& ray, std::size_t instance, glm::ivec3 voxel) const {
+  if (instance >= placed_.size()) return -1.0;
+  const Placed& p = placed_[instance];
+  glm::dvec3 o(p.worldToBrick * glm::dvec4(ray.o, 1.0)), d(p.worldToBrick * glm::dvec4(ray.d, 0.0));
+  double t0 = ray.tMin, t1 = ray.tMax;
+  if (!clip(o, d, glm::dvec3(voxel), glm::dvec3(voxel) + 1.0, t0, t1)) return -1.0;
+  return t0;
 }
 
 }  // namespace vs::test

@@ -37,6 +37,12 @@ struct ExactHit {
   std::size_t instance = 0;
   glm::ivec3 voxel{0};
   double voxelsPerT = 0.0;    // voxels of the hit instance per unit of t
+  // The face of the hit voxel the ray entered through (the near plane crossed last; VS_FACE_* numbering of
+  // compute/shared/trace_rays.h: 2 * axis, + 1 when the ray moves toward -axis; 6 when the ray starts inside
+  // the voxel), and how far, in voxels along the ray, the runner-up plane or the ray's start lies from that
+  // plane: below a tracer's rounding the face is a tie either tracer may break its own way.
+  unsigned face = 6;
+  double faceMargin = 0.0;
 };
 
 class ExactReference {
@@ -52,6 +58,10 @@ class ExactReference {
   // voxels: an edge or corner contact, where two tracers within `tolerance` of each other may decide
   // differently.
   bool grazesNear(const ExactRay& ray, double t, double slackVoxels, double tolerance) const;
+
+  // Where the ray's segment enters voxel `voxel` of instance `instance`, in t; negative when it does not
+  // (whether or not the voxel is solid).
+  double entryT(const ExactRay& ray, std::size_t instance, glm::ivec3 voxel) const;
 
  private:
   struct Placed {

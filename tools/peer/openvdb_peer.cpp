@@ -105,6 +105,33 @@ bool OpenVdbPeer::trace(const glm::vec3& o, const glm::vec3& d, double tMin, dou
 
 bool OpenVdbPeer::trace(const gpu::SceneArrays::WorldRay& ray, double& tHit, std::uint32_t& instance,
                         glm::ivec3& voxel) const {
+  return trace(ray, tHit, instance, voxel, false);
+}
+
+std::vector<std::uint8_t> OpenVdbPeer::traceRays(std::span<const gpu::TraceRay> rays, bool anyHit, int threads) const {
+  std::vector<std::uint8_t> out(rays.size(), 0);
+  gpu::SceneArrays arrays;
+  auto run = [&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+        double t = 0.0;
+        std::uint32_t inst = 0;
+        glm::ivec3 v(0);
+        out[i] = trace(arrays.vsTraceRayToWorld(rays[i]), t, inst, v, anyHit) ? 1 : 0;
+      }
+    });
+  };
+  if (threads > 0) {
+    tbb::task_arena arena(threads);
+    arena.execute(run);
+  } else {
+    run();
+  }
+  return out;
+}
+
+bool OpenVdbPeer::trace(const gpu::SceneArrays::WorldRay& ray, double& tHit, std::uint32_t& instance,
+                        glm::ivec3& voxel, bool anyHit) const {
   ThreadState& state = threads_->states.local();
   if (state.intersectors.size() != objects_.size()) {
     for (const auto& obj : objects_) {
@@ -137,6 +164,7 @@ bool OpenVdbPeer::trace(const gpu::SceneArrays::WorldRay& ray, double& tHit, std
         voxel = glm::ivec3(c.x(), c.y(), c.z());
       }
       hit = true;
+      if (anyHit) break;
     }
   }
   if (hit) tHit = best;

@@ -33,6 +33,11 @@ class OpenVdbPeer {
   // traversal's own re-based brick-space ray (vsInstanceBaseT, vsInstanceRay), and t is the world t.
   // tHit is the entry time of the hit voxel. Thread-safe.
   bool trace(const gpu::SceneArrays::WorldRay& ray, double& tHit, std::uint32_t& instance, glm::ivec3& voxel) const;
+  // With anyHit, the first instance that holds a hit ends the search (visibility rays: whether, not where).
+  bool trace(const gpu::SceneArrays::WorldRay& ray, double& tHit, std::uint32_t& instance, glm::ivec3& voxel,
+             bool anyHit) const;
+  // Whether each ray hits (closest-hit rays, or any-hit rays with anyHit), 1 or 0 per ray. threads <= 0: all.
+  std::vector<std::uint8_t> traceRays(std::span<const gpu::TraceRay> rays, bool anyHit, int threads = 0) const;
   // The same for the ray o + t*d, t in [tMin, tMax].
   bool trace(const glm::vec3& o, const glm::vec3& d, double tMin, double tMax, double& tHit,
              std::uint32_t& instance, glm::ivec3& voxel) const;

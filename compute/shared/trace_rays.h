@@ -1,0 +1,64 @@
+// trace_rays.h: the records of the two ray kinds besides the shadow texel (DESIGN.md §6), readable as C++ and
+// GLSL: a ray given by its caller, and the closest-hit record. Any-hit rays read the same TraceRay and answer
+// one word (1: some solid voxel lies in [tMin, tMax]).
+#ifndef VOXSHADOW_TRACE_RAYS_H
+#define VOXSHADOW_TRACE_RAYS_H
+
+#include "voxel/portable.h"
+
+VS_NAMESPACE_BEGIN
+
+// The face of its voxel through which a ray entered, in the object's brick space, named by the face's outward
+// normal: a ray moving toward +x enters through the voxel's -x face (VS_FACE_NEG_X). VS_FACE_NONE: the ray
+// started inside the voxel.
+const uint VS_FACE_NEG_X = 0u;
+const uint VS_FACE_POS_X = 1u;
+const uint VS_FACE_NEG_Y = 2u;
+const uint VS_FACE_POS_Y = 3u;
+const uint VS_FACE_NEG_Z = 4u;
+const uint VS_FACE_POS_Z = 5u;
+const uint VS_FACE_NONE = 6u;
+
+// A ray origin + t * direction, t in [tMin, tMax]. The origin is two floats whose sum holds it to about 48 bits
+// (as a view's eye), so that a ray keeps its precision far from the world origin.
+struct TraceRay {
+  vec4 originHigh;  // xyz: the origin rounded to float; w: tMin
+  vec4 originLow;   // xyz: origin - originHigh, rounded; w: tMax
+  vec4 direction;   // xyz: the direction (t is measured in its length); w: 0
+};
+
+// The closest hit of a TraceRay. On a miss: hit 0, t the ray's tMax, everything else 0.
+struct RayHit {
+  ivec4 voxel;    // xyz: the hit voxel in its object's brick space; w: the entry face (VS_FACE_*)
+  float t;        // where the ray enters the voxel
+  uint instance;  // the instance's index in the scene
+  uint material;  // the voxel's palette index (1..255)
+  uint hit;       // 1 on a hit
+};
+
+VS_NAMESPACE_END
+
+#ifndef VS_GLSL
+namespace vs::gpu {
+// A ray from an origin in double: the origin is split into two floats before any rounding.
+inline TraceRay makeTraceRay(const glm::dvec3& origin, const glm::dvec3& direction, float tMin, float tMax) {
+  TraceRay ray{};
+  glm::vec3 high(origin);
+  ray.originHigh = glm::vec4(high, tMin);
+  ray.originLow = glm::vec4(glm::vec3(origin - glm::dvec3(high)), tMax);
+  ray.direction = glm::vec4(glm::vec3(direction), 0.0f);
+  return ray;
+}
+
+VS_LAYOUT_CHECK(TraceRay, 48);
+VS_OFFSET_CHECK(TraceRay, originLow, 16);
+VS_OFFSET_CHECK(TraceRay, direction, 32);
+VS_LAYOUT_CHECK(RayHit, 32);
+VS_OFFSET_CHECK(RayHit, t, 16);
+VS_OFFSET_CHECK(RayHit, instance, 20);
+VS_OFFSET_CHECK(RayHit, material, 24);
+VS_OFFSET_CHECK(RayHit, hit, 28);
+}  // namespace vs::gpu
+#endif
+
+#endif

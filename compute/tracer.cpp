@@ -1,0 +1,97 @@
+#include "compute/tracer.h"
+
+#include <chrono>
+#include <thread>
+
+#include "voxel/error.h"
+
+namespace vs {
+namespace {
+
+class CpuBackend final : public Tracer {
+ public:
+  explicit CpuBackend(const CpuTracerOptions& options) : options_(options) {}
+
+  std::string backend() const override { return "cpu"; }
+  std::string deviceName() const override {
+    int threads = options_.threads > 0 ? options_.threads : int(std::thread::hardware_concurrency());
+    return "CPU, " + std::to_string(threads) + (threads == 1 ? " thread" : " threads");
+  }
+  void setScene(const SceneData& scene) override {
+    // The tables derived from the voxels are rebuilt on the next trace.
+    tracer_ = std::make_unique<CpuTracer>(scene);
+  }
+  void instancesMoved(const SceneData& scene) override {
+    // The fast path's tables depend on the voxels only: moved instances keep them.
+    if (!tracer_) throwRuntime("Tracer::instancesMoved called before setScene()");
+    (void)scene;
+  }
+  TraceStats traceShadow(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) override {
+    return timed(raysOf(views), [&] { bound().trace(views, layers, options_.path, options_.threads); });
+  }
+  TraceStats traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits) override {
+    return timed(rays.size(), [&] { bound().traceClosest(rays, hits, options_.path, options_.threads); });
+  }
+  TraceStats traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded) override {
+    return timed(rays.size(), [&] { bound().traceAny(rays, occluded, options_.path, options_.threads); });
+  }
+  CpuTracer* cpu() override { return tracer_.get(); }
+
+ private:
+  CpuTracer& bound() {
+    if (!tracer_) throwRuntime("Tracer: rays traced before setScene()");
+    return *tracer_;
+  }
+  static std::uint64_t raysOf(std::span<const gpu::TraceView> views) {
+    std::uint64_t n = 0;
+    for (const gpu::TraceView& v : views)
+      n += std::uint64_t(std::max(0, v.rect.z - v.rect.x)) * std::uint64_t(std::max(0, v.rect.w - v.rect.y));
+    return n;
+  }
+  template <class Run>
+  static TraceStats timed(std::uint64_t rays, Run&& run) {
+    auto t0 = std::chrono::steady_clock::now();
+    run();
+    TraceStats stats;
+    stats.rays = rays;
+    stats.wallMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (stats.wallMs > 0.0) stats.mraysPerSecond = double(rays) / (stats.wallMs * 1e3);
+    return stats;
+  }
+
+  CpuTracerOptions options_;
+  std::unique_ptr<CpuTracer> tracer_;
+};
+
+class VulkanBackend final : public Tracer {
+ public:
+  explicit VulkanBackend(const VulkanOptions& options) : tracer_(options) {}
+
+  std::string backend() const override { return "vulkan"; }
+  std::string deviceName() const override { return tracer_.device().name; }
+  void setScene(const SceneData& scene) override { tracer_.upload(scene); }
+  void instancesMoved(const SceneData& scene) override { tracer_.uploadInstances(scene); }
+  TraceStats traceShadow(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) override {
+    return tracer_.trace(views, layers);
+  }
+  TraceStats traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits) override {
+    return tracer_.traceClosest(rays, hits);
+  }
+  TraceStats traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded) override {
+    return tracer_.traceAny(rays, occluded);
+  }
+  VulkanTracer* vulkan() override { return &tracer_; }
+
+ private:
+  VulkanTracer tracer_;
+};
+
+}  // namespace
+
+std::unique_ptr<Tracer> makeCpuTracer(const CpuTracerOptions& options) { return std::make_unique<CpuBackend>(options); }
+
+std::unique_ptr<Tracer> makeVulkanTracer(const VulkanOptions& options) {
+  return std::make_unique<VulkanBackend>(options);
+}
+
+}  // namespace vs

@@ -1,0 +1,390 @@
+// The closest-hit and any-hit ray kinds (compute/shared/trace_rays.h) through every backend: the CPU reference,
+// the CPU fast path (eight AVX2 lanes where the processor has them), the portable CPU tiles and the Vulkan shader
+// give identical records bit for bit on a seeded battery of more than a million rays; any-hit agrees with
+// "a closest hit exists" on every ray; and the records agree with the independent double-precision reference.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <random>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "compute/cpu/lane_tracer.h"
+#include "compute/cpu/scene_arrays.h"
+#include "compute/tracer.h"
+#include "support/exact_reference.h"
+#include "support/test_scenes.h"
+#include "voxel/error.h"
+
+namespace vs {
+namespace {
+
+using test::TestScene;
+
+// A lumpy 48^3 object whose voxels carry materials in every arrangement the payload has: bricks of one
+// material, bricks with one byte per voxel, full bricks, and empty space between.
+std::unique_ptr<Brickmap> materialObject(std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::vector<SolidVoxel> voxels;
+  for (int z = 0; z < 48; ++z)
+    for (int y = 0; y < 48; ++y)
+      for (int x = 0; x < 48; ++x) {
+        glm::ivec3 v(x, y, z);
+        bool ground = y < 6 + (x * 7 + z * 3) % 5;
+        bool block = x >= 16 && x < 24 && z >= 16 && z < 24 && y < 24;  // one material, full bricks
+        bool speckle = (rng() % 23u) == 0u && y < 40;
+        if (!(ground || block || speckle)) continue;
+        std::uint8_t material = block ? 7 : ground ? std::uint8_t(1 + (x + 3 * y + 5 * z) % 200) : std::uint8_t(250);
+        voxels.push_back({v, material});
+      }
+  return std::make_unique<Brickmap>(Brickmap::build(voxels));
+}
+
+TestScene singleObjectScene(glm::dvec3 offset) {
+  TestScene s;
+  s.name = "single object";
+  s.brickmaps.push_back(materialObject(3));
+  s.instances.push_back({0u, glm::translate(glm::dmat4(1.0), offset)});
+  s.finish();
+  return s;
+}
+
+// Rotated, scaled and overlapping copies of two objects, moved by `offset`.
+TestScene instancedScene(glm::dvec3 offset) {
+  TestScene s;
+  s.name = "instances";
+  s.brickmaps.push_back(materialObject(5));
+  s.brickmaps.push_back(test::boxObject({0, 0, 0}, {5, 9, 3}, 42));
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int i = 0; i < 12; ++i) {
+    glm::dmat4 m = glm::translate(glm::dmat4(1.0), offset + glm::dvec3((i % 4) * 20.0, unit(rng) * 6.0, (i / 4) * 20.0));
+    if (i % 3 != 0)
+      m = glm::rotate(m, unit(rng) * 6.283, glm::normalize(glm::dvec3(unit(rng) - 0.5, 1.0, unit(rng) - 0.5)));
+    m = glm::scale(m, glm::dvec3(0.25 + unit(rng) * 0.5));
+    s.instances.push_back({std::uint32_t(i % 5 == 4 ? 1 : 0), m});
+  }
+  s.finish();
+  return s;
+}
+
+// A seeded battery around the scene's world box: axis-aligned, 45-degree, through voxel-lattice points (edges
+// and corners), grazing, starting inside solid voxels, and general rays, with whole and partial segments.
+std::vector<gpu::TraceRay> rayBattery(const TestScene& scene, std::size_t count, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const glm::dvec3 lo(scene.data.worldBounds.min), hi(scene.data.worldBounds.max);
+  const glm::dvec3 centre = (lo + hi) * 0.5, extent = hi - lo;
+  const double reach = glm::length(extent) * 1.5;
+  auto inBox = [&](double grow) { return lo - extent * grow + (extent * (1.0 + 2.0 * grow)) * glm::dvec3(unit(rng), unit(rng), unit(rng)); };
+  auto randomDir = [&] {
+    glm::dvec3 d(unit(rng) * 2.0 - 1.0, unit(rng) * 2.0 - 1.0, unit(rng) * 2.0 - 1.0);
+    return glm::length(d) < 1e-3 ? glm::dvec3(0.0, -1.0, 0.0) : glm::normalize(d);
+  };
+  // A point on the voxel lattice of some instance (a voxel corner, edge or face centre) in world space.
+  auto latticePoint = [&] {
+    const SceneInstance& inst = scene.instances[rng() % scene.instances.size()];
+    const Brickmap& bm = *scene.brickmaps[inst.object];
+    VoxelBox b = bm.bounds();
+    glm::dvec3 p(b.min.x + int(rng() % unsigned(b.max.x - b.min.x + 1)), b.min.y + int(rng() % unsigned(b.max.y - b.min.y + 1)),
+                 b.min.z + int(rng() % unsigned(b.max.z - b.min.z + 1)));
+    if (rng() % 3u == 0u) p[rng() % 3u] += 0.5;
+    return glm::dvec3(inst.brickToWorld * glm::dvec4(p, 1.0));
+  };
+  // The centre of a random solid voxel of some instance, in world space.
+  auto solidCentre = [&] {
+    for (;;) {
+      const SceneInstance& inst = scene.instances[rng() % scene.instances.size()];
+      const Brickmap& bm = *scene.brickmaps[inst.object];
+      VoxelBox b = bm.bounds();
+      glm::ivec3 v(b.min.x + int(rng() % unsigned(b.max.x - b.min.x)), b.min.y + int(rng() % unsigned(b.max.y - b.min.y)),
+                   b.min.z + int(rng() % unsigned(b.max.z - b.min.z)));
+      if (bm.isSolid(v)) return glm::dvec3(inst.brickToWorld * glm::dvec4(glm::dvec3(v) + 0.5, 1.0));
+    }
+  };
+  std::vector<gpu::TraceRay> rays;
+  rays.reserve(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    glm::dvec3 o, d;
+    switch (i % 6) {
+      case 0: {  // axis-aligned, into the box
+        int axis = int(rng() % 3u);
+        o = inBox(0.1);
+        d = glm::dvec3(0.0);
+        d[axis] = o[axis] > centre[axis] ? -1.0 : 1.0;
+        break;
+      }
+      case 1:  // 45 degrees in a plane or along a space diagonal
+        o = inBox(0.2);
+        d = glm::dvec3(double(int(rng() % 3u) - 1), double(int(rng() % 3u) - 1), double(int(rng() % 3u) - 1));
+        if (d == glm::dvec3(0.0)) d = glm::dvec3(1.0, -1.0, 0.0);
+        d = glm::normalize(d);
+        break;
+      case 2:  // through lattice points: from one, or aimed at one
+        if (rng() % 2u) {
+          o = latticePoint();
+          d = randomDir();
+        } else {
+          o = inBox(0.3);
+          d = glm::normalize(latticePoint() - o);
+        }
+        break;
+      case 3: {  // grazing: nearly parallel to a face
+        o = inBox(0.1);
+        d = randomDir();
+        d[rng() % 3u] = (unit(rng) - 0.5) * std::pow(10.0, -2.0 - 5.0 * unit(rng));
+        d = glm::normalize(d);
+        break;
+      }
+      case 4:  // starting inside a solid voxel
+        o = solidCentre();
+        d = randomDir();
+        break;
+      default:  // general, from outside toward the box
+        o = centre + randomDir() * reach * 0.5;
+        d = glm::normalize(inBox(0.0) - o);
+        break;
+    }
+    double tMin = 0.0, tMax = reach;
+    switch (rng() % 4u) {
+      case 0: tMin = unit(rng) * reach * 0.5; break;  // a segment starting part-way
+      case 1: tMax = unit(rng) * reach * 0.25; break;  // a short segment (a visibility ray)
+      default: break;
+    }
+    rays.push_back(gpu::makeTraceRay(o, d, float(tMin), float(tMax)));
+  }
+  return rays;
+}
+
+struct Results {
+  std::vector<gpu::RayHit> hits;
+  std::vector<std::uint32_t> occluded;
+};
+
+Results traceBoth(Tracer& tracer, std::span<const gpu::TraceRay> rays) {
+  Results r;
+  r.hits.resize(rays.size());
+  r.occluded.resize(rays.size());
+  tracer.traceClosest(rays, r.hits);
+  tracer.traceAny(rays, r.occluded);
+  return r;
+}
+
+// The first ray whose record differs, for the failure message.
+std::string firstDifference(const std::vector<gpu::RayHit>& a, const std::vector<gpu::RayHit>& b) {
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (std::memcmp(&a[i], &b[i], sizeof(gpu::RayHit)) == 0) continue;
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "ray %zu: hit %u/%u t %.9g/%.9g instance %u/%u voxel (%d %d %d)/(%d %d %d) face %d/%d material %u/%u",
+                  i, a[i].hit, b[i].hit, a[i].t, b[i].t, a[i].instance, b[i].instance, a[i].voxel.x, a[i].voxel.y,
+                  a[i].voxel.z, b[i].voxel.x, b[i].voxel.y, b[i].voxel.z, a[i].voxel.w, b[i].voxel.w, a[i].material,
+                  b[i].material);
+    return buf;
+  }
+  return "none";
+}
+
+std::size_t anyHitDisagreements(const Results& r) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < r.hits.size(); ++i) n += (r.hits[i].hit != 0u) != (r.occluded[i] != 0u);
+  return n;
+}
+
+class RayKinds : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    // A missing Vulkan device fails here, loudly: lavapipe is always installable.
+    VulkanOptions options;
+    options.validation = true;
+    vulkan_ = makeVulkanTracer(options).release();
+  }
+  static void TearDownTestSuite() {
+    delete vulkan_;
+    vulkan_ = nullptr;
+  }
+  static Tracer* vulkan_;
+};
+Tracer* RayKinds::vulkan_ = nullptr;
+
+// 4 scenes x 262,144 rays: 1,048,576 rays of each kind through each backend.
+TEST_F(RayKinds, EveryBackendGivesTheSameRecordsOnAMillionRays) {
+  constexpr std::size_t kRaysPerScene = 262144;
+  std::vector<TestScene> scenes;
+  scenes.push_back(singleObjectScene(glm::dvec3(0.0)));
+  scenes.push_back(instancedScene(glm::dvec3(0.0)));
+  scenes.push_back(instancedScene(glm::dvec3(1.0e4, -3.0e3, 2.0e4)));
+  scenes.push_back(singleObjectScene(glm::dvec3(-1.0e5, 2.0e3, 1.0e5)));
+  const bool lanes = laneTracerSupported(scenes[0].data);
+  if (!lanes) std::printf("note: this processor has no AVX2; the fast path runs the portable tiles only\n");
+  std::size_t total = 0, hits = 0, faces = 0, starts = 0;
+  for (std::size_t s = 0; s < scenes.size(); ++s) {
+    const TestScene& scene = scenes[s];
+    SCOPED_TRACE("scene " + std::to_string(s) + " (" + scene.name + ")");
+    std::vector<gpu::TraceRay> rays = rayBattery(scene, kRaysPerScene, std::uint32_t(100 + s));
+    auto reference = makeCpuTracer({CpuTracePath::Reference, 2});
+    auto fast = makeCpuTracer({CpuTracePath::Interleaved, 2});
+    auto tiles = makeCpuTracer({CpuTracePath::PortableTiles, 2});
+    for (Tracer* t : {reference.get(), fast.get(), tiles.get(), vulkan_}) t->setScene(scene.data);
+    Results ref = traceBoth(*reference, rays);
+    EXPECT_EQ(anyHitDisagreements(ref), 0u);
+    for (Tracer* t : {fast.get(), tiles.get(), vulkan_}) {
+      SCOPED_TRACE(t->backend() + " on " + t->deviceName());
+      Results r = traceBoth(*t, rays);
+      EXPECT_EQ(std::memcmp(r.hits.data(), ref.hits.data(), r.hits.size() * sizeof(gpu::RayHit)), 0)
+          << "first difference from the reference: " << firstDifference(r.hits, ref.hits);
+      EXPECT_EQ(r.occluded, ref.occluded);
+      EXPECT_EQ(anyHitDisagreements(r), 0u);
+    }
+    for (const gpu::RayHit& h : ref.hits) {
+      hits += h.hit;
+      faces += h.hit && h.voxel.w != int(gpu::VS_FACE_NONE);
+      starts += h.hit && h.voxel.w == int(gpu::VS_FACE_NONE);
+      if (h.hit) {
+        EXPECT_GE(h.material, 1u);
+        EXPECT_LE(h.voxel.w, int(gpu::VS_FACE_NONE));
+      }
+    }
+    total += rays.size();
+  }
+  std::printf("%zu rays, %zu hits (%zu through a face, %zu starting inside a solid voxel)\n", total, hits, faces,
+              starts);
+  // The battery exercises what it claims to: most rays hit, and some start inside solids.
+  EXPECT_GE(total, 1000000u);
+  EXPECT_GT(hits, total / 4);
+  EXPECT_GT(starts, total / 50);
+  EXPECT_TRUE(vulkan_->vulkan()->validationMessages().empty());
+}
+
+// Hit records against the independent double-precision reference: the same hit or miss, instance, voxel, entry
+// face and material, and t within 1e-3 voxel, wherever the ray is not an edge or corner contact (or a near tie
+// between two voxels, which the test verifies as such).
+TEST_F(RayKinds, ClosestHitsMatchTheExactReference) {
+  for (glm::dvec3 offset : {glm::dvec3(0.0), glm::dvec3(1.0e4, -3.0e3, 2.0e4)}) {
+    TestScene scene = instancedScene(offset);
+    SCOPED_TRACE("offset " + std::to_string(offset.x));
+    std::vector<gpu::TraceRay> rays = rayBattery(scene, 20000, 7);
+    auto fast = makeCpuTracer();
+    fast->setScene(scene.data);
+    std::vector<gpu::RayHit> hits(rays.size());
+    fast->traceClosest(rays, hits);
+    test::ExactReference exact(scene.brickmapPointers(), scene.instances);
+    std::size_t compared = 0, ties = 0, facesCompared = 0;
+    for (std::size_t i = 0; i < rays.size(); ++i) {
+      const gpu::TraceRay& r = rays[i];
+      test::ExactRay er;
+      er.o = glm::dvec3(glm::vec3(r.originHigh)) + glm::dvec3(glm::vec3(r.originLow));
+      er.d = glm::dvec3(glm::vec3(r.direction));
+      er.tMin = r.originHigh.w;
+      er.tMax = r.originLow.w;
+      test::ExactHit e = exact.trace(er);
+      const gpu::RayHit& h = hits[i];
+      if (bool(h.hit) != e.hit || (e.hit && (h.instance != e.instance || h.voxel.x != e.voxel.x ||
+                                              h.voxel.y != e.voxel.y || h.voxel.z != e.voxel.z))) {
+        // Two tracers may decide an edge or corner contact differently (where either of them hit); nothing else.
+        bool contact = (h.hit && exact.grazesNear(er, double(h.t), 2.0, 1e-3)) ||
+                       (e.hit && exact.grazesNear(er, e.t, 2.0, 1e-3));
+        // Or two solid voxels the ray enters within 1e-3 voxel of each other, one chosen by each.
+        if (h.hit && e.hit && !contact) {
+          double tEnter = exact.entryT(er, h.instance, glm::ivec3(h.voxel));
+          contact = tEnter >= 0.0 && std::abs(tEnter - e.t) * e.voxelsPerT <= 1e-3 &&
+                    scene.brickmaps[scene.instances[h.instance].object]->isSolid(glm::ivec3(h.voxel));
+        }
+        EXPECT_TRUE(contact)
+            << "ray " << i << ": hit " << h.hit << "/" << e.hit << " instance " << h.instance << "/" << e.instance
+            << " voxel (" << h.voxel.x << " " << h.voxel.y << " " << h.voxel.z << ")/(" << e.voxel.x << " "
+            << e.voxel.y << " " << e.voxel.z << ") t " << h.t << "/" << e.t;
+        ++ties;
+        continue;
+      }
+      ++compared;
+      if (!e.hit) continue;
+      EXPECT_NEAR(double(h.t) * e.voxelsPerT, e.t * e.voxelsPerT, 1e-3 + 1e-6 * std::abs(e.t * e.voxelsPerT))
+          << "ray " << i;
+      EXPECT_EQ(h.material, scene.brickmaps[scene.instances[e.instance].object]->material(e.voxel)) << "ray " << i;
+      if (e.faceMargin > 1e-3) {
+        EXPECT_EQ(unsigned(h.voxel.w), e.face) << "ray " << i;
+        ++facesCompared;
+      }
+    }
+    std::printf("%zu rays agree with the exact reference (%zu faces compared), %zu edge contacts\n", compared,
+                facesCompared, ties);
+    EXPECT_GT(facesCompared, rays.size() / 4);
+    // Lattice-point rays (a sixth of the battery) are made to touch edges and corners.
+    EXPECT_LT(ties, rays.size() / 20);
+  }
+}
+
+// The shared pieces at exact ties: the entry face of a ray through a voxel corner follows the canonical order
+// (z, then y, then x crossed: x last), a ray that starts inside its voxel has no face, and the material lookup
+// reads uniform and per-voxel bricks alike.
+TEST(RayKindsShared, EntryFaceAndMaterialAtTies) {
+  gpu::SceneArrays arrays;
+  const glm::vec3 diagonal(1.0f, 1.0f, 1.0f);
+  const glm::vec3 invD(1.0f);
+  // From (0.5, 0.5, 0.5) along the diagonal: the planes x = y = z = 1 are crossed at t = 0.5 together.
+  EXPECT_EQ(arrays.vsEntryFace(glm::vec3(0.5f), diagonal, invD, glm::ivec3(1, 1, 1), 0.0f), gpu::VS_FACE_NEG_X);
+  // A ray moving toward -z enters through the +z face.
+  EXPECT_EQ(arrays.vsEntryFace(glm::vec3(0.5f, 0.5f, 3.5f), glm::vec3(0.0f, 0.0f, -1.0f),
+                               glm::vec3(0.0f, 0.0f, -1.0f), glm::ivec3(0, 0, 2), 0.0f),
+            gpu::VS_FACE_POS_Z);
+  // Starting inside: every near plane lies before tStart.
+  EXPECT_EQ(arrays.vsEntryFace(glm::vec3(1.5f, 1.5f, 1.5f), diagonal, invD, glm::ivec3(1, 1, 1), 0.0f),
+            gpu::VS_FACE_NONE);
+  // Starting exactly on the plane counts as entering through it.
+  EXPECT_EQ(arrays.vsEntryFace(glm::vec3(1.0f, 1.5f, 1.5f), glm::vec3(1.0f, 0.0f, 0.0f), glm::vec3(1.0f, 0.0f, 0.0f),
+                               glm::ivec3(1, 1, 1), 0.0f),
+            gpu::VS_FACE_NEG_X);
+
+  std::vector<SolidVoxel> voxels;
+  for (int x = 0; x < 8; ++x)
+    for (int y = 0; y < 8; ++y)
+      for (int z = 0; z < 8; ++z) voxels.push_back({{x, y, z}, 9});  // one uniform brick
+  voxels.push_back({{8, 0, 0}, 3});   // a brick with two materials
+  voxels.push_back({{9, 1, 0}, 200});
+  Brickmap bm = Brickmap::build(voxels);
+  std::vector<const Brickmap*> maps{&bm};
+  std::vector<SceneInstance> instances{{0u, glm::dmat4(1.0)}};
+  SceneData scene = SceneData::build(maps, instances);
+  gpu::SceneArrays sa(scene);
+  EXPECT_EQ(sa.vsVoxelMaterial(0u, glm::ivec3(3, 4, 5)), 9u);
+  EXPECT_EQ(sa.vsVoxelMaterial(0u, glm::ivec3(8, 0, 0)), 3u);
+  EXPECT_EQ(sa.vsVoxelMaterial(0u, glm::ivec3(9, 1, 0)), 200u);
+  EXPECT_EQ(sa.vsVoxelMaterial(0u, glm::ivec3(9, 0, 0)), 0u);    // empty voxel of a partial brick
+  EXPECT_EQ(sa.vsVoxelMaterial(0u, glm::ivec3(40, 0, 0)), 0u);   // outside the object
+  // A ray along +x from inside the uniform brick: no face, material 9; from outside: the -x face at t = 2.
+  gpu::RayHit inside = sa.vsClosestHit(sa.vsTraceRayToWorld(gpu::makeTraceRay({2.5, 2.5, 2.5}, {1, 0, 0}, 0.0f, 50.0f)));
+  EXPECT_EQ(inside.hit, 1u);
+  EXPECT_EQ(inside.voxel.w, int(gpu::VS_FACE_NONE));
+  EXPECT_EQ(inside.material, 9u);
+  gpu::RayHit outside = sa.vsClosestHit(sa.vsTraceRayToWorld(gpu::makeTraceRay({-2.0, 0.5, 0.5}, {1, 0, 0}, 0.0f, 50.0f)));
+  EXPECT_EQ(outside.hit, 1u);
+  EXPECT_EQ(outside.t, 2.0f);
+  EXPECT_EQ(outside.voxel.w, int(gpu::VS_FACE_NEG_X));
+  // From +x toward the mixed brick: voxel (9, 1, 0) is entered through its +x face.
+  gpu::RayHit back = sa.vsClosestHit(sa.vsTraceRayToWorld(gpu::makeTraceRay({20.0, 1.5, 0.5}, {-1, 0, 0}, 0.0f, 50.0f)));
+  EXPECT_EQ(back.voxel, glm::ivec4(9, 1, 0, int(gpu::VS_FACE_POS_X)));
+  EXPECT_EQ(back.material, 200u);
+  // Any-hit over segments that stop short of the voxel and that reach it.
+  EXPECT_FALSE(sa.vsAnyHit(sa.vsTraceRayToWorld(gpu::makeTraceRay({20.0, 1.5, 0.5}, {-1, 0, 0}, 0.0f, 9.5f))));
+  EXPECT_TRUE(sa.vsAnyHit(sa.vsTraceRayToWorld(gpu::makeTraceRay({20.0, 1.5, 0.5}, {-1, 0, 0}, 0.0f, 10.5f))));
+}
+
+TEST_F(RayKinds, MismatchedOutputsAreRefused) {
+  TestScene scene = singleObjectScene(glm::dvec3(0.0));
+  std::vector<gpu::TraceRay> rays = rayBattery(scene, 10, 1);
+  std::vector<gpu::RayHit> hits(9);
+  std::vector<std::uint32_t> occluded(11);
+  auto cpu = makeCpuTracer();
+  EXPECT_THROW(cpu->traceClosest(rays, hits), Error);  // before setScene
+  cpu->setScene(scene.data);
+  vulkan_->setScene(scene.data);
+  for (Tracer* t : {cpu.get(), vulkan_}) {
+    EXPECT_THROW(t->traceClosest(rays, hits), Error) << t->backend();
+    EXPECT_THROW(t->traceAny(rays, occluded), Error) << t->backend();
+  }
+  // No rays: nothing traced, nothing written.
+  EXPECT_NO_THROW(vulkan_->traceClosest({}, {}));
+}
+
+}  // namespace
+}  // namespace vs
