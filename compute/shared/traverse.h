@@ -586,6 +586,22 @@ bool vsNextLeafEntry(vec3 o, vec3 d, float pad, float tMin, float tBest, VS_INOU
   return entry < entryEnd;
 }
 
+// The first solid voxel of one instance along a world ray, walked re-based (vsInstanceBaseT) up to vsWalkEnd:
+// on a hit, tWorld is its world t and voxel its coordinate in the object's brick space.
+bool vsTraceInstance(WorldRay ray, uint instanceIndex, bool hit, float tBest, VS_INOUT(float) tWorld,
+                     VS_INOUT(ivec3) voxel) {
+  float tBase = vsInstanceBaseT(ray, instanceIndex);
+  vec3 lo = vec3(0.0f);
+  vec3 ld = vec3(0.0f);
+  vsInstanceRay(ray, instanceIndex, tBase, lo, ld);
+  float t = VS_T_INFINITY;
+  if (!vsTraceObject(VS_READ_INSTANCE_OBJECT(instanceIndex), lo, ld, vsLocalT(ray.tMin, tBase),
+                     vsWalkEnd(hit, tBest, ray.tMax, tBase), t, voxel))
+    return false;
+  tWorld = vsWorldT(t, tBase);
+  return true;
+}
+
 // Closest hit of a world ray over every instance. On a hit, tHit is the entry t, instanceHit the instance index
 // and voxel the hit voxel in that object's brick space. Instances are taken in depth-first BVH order, left child
 // first; the closest-hit rule is vsCloserHit.
@@ -602,15 +618,9 @@ bool vsTraceClosest(WorldRay ray, VS_INOUT(float) tHit, VS_INOUT(uint) instanceH
   while (more) {
     uint instanceIndex = VS_READ_INSTANCE_INDEX(entry);
     entry += 1u;
-    float tBase = vsInstanceBaseT(ray, instanceIndex);
-    vec3 lo = vec3(0.0f);
-    vec3 ld = vec3(0.0f);
-    vsInstanceRay(ray, instanceIndex, tBase, lo, ld);
-    float t = VS_T_INFINITY;
+    float tWorld = VS_T_INFINITY;
     ivec3 v = ivec3(0);
-    if (vsTraceObject(VS_READ_INSTANCE_OBJECT(instanceIndex), lo, ld, vsLocalT(ray.tMin, tBase),
-                      vsWalkEnd(hit, tBest, ray.tMax, tBase), t, v)) {
-      float tWorld = vsWorldT(t, tBase);
+    if (vsTraceInstance(ray, instanceIndex, hit, tBest, tWorld, v)) {
       if (vsCloserHit(hit, tWorld, instanceIndex, tBest, instanceHit)) {
         tBest = tWorld;
         instanceHit = instanceIndex;
@@ -717,14 +727,9 @@ bool vsTraceAny(WorldRay ray) {
   while (more) {
     uint instanceIndex = VS_READ_INSTANCE_INDEX(entry);
     entry += 1u;
-    float tBase = vsInstanceBaseT(ray, instanceIndex);
-    vec3 lo = vec3(0.0f);
-    vec3 ld = vec3(0.0f);
-    vsInstanceRay(ray, instanceIndex, tBase, lo, ld);
     float t = VS_T_INFINITY;
     ivec3 v = ivec3(0);
-    hit = vsTraceObject(VS_READ_INSTANCE_OBJECT(instanceIndex), lo, ld, vsLocalT(ray.tMin, tBase),
-                        vsLocalT(ray.tMax, tBase), t, v);
+    hit = vsTraceInstance(ray, instanceIndex, false, ray.tMax, t, v);
     more = !hit && vsNextLeafEntry(o, ray.d, pad, ray.tMin, ray.tMax, node, entry, entryEnd);
   }
   return hit;
