@@ -64,6 +64,11 @@ std::vector<Expected> cppLayouts() {
        {VS_MEMBER(TraceView, viewProj, 16), VS_MEMBER(TraceView, clipToEye, 16), VS_MEMBER(TraceView, eyeHigh, 4),
         VS_MEMBER(TraceView, eyeLow, 4),
         VS_MEMBER(TraceView, rect, 4), VS_MEMBER(TraceView, info, 4)}},
+      {"TraceRay", sizeof(TraceRay),
+       {VS_MEMBER(TraceRay, originHigh, 4), VS_MEMBER(TraceRay, originLow, 4), VS_MEMBER(TraceRay, direction, 4)}},
+      {"RayHit", sizeof(RayHit),
+       {VS_MEMBER(RayHit, voxel, 4), VS_MEMBER(RayHit, t, 1), VS_MEMBER(RayHit, instance, 1),
+        VS_MEMBER(RayHit, material, 1), VS_MEMBER(RayHit, hit, 1)}},
   };
 }
 

@@ -8,6 +8,7 @@
 #define VS_GLSL 1
 #include "voxel/brickmap_layout.h"
 #include "bvh/bvh_layout.h"
+#include "compute/shared/trace_rays.h"
 #include "compute/shared/trace_view.h"
 
 layout(local_size_x = 1, local_size_y = 1, local_size_z = 1) in;
@@ -20,6 +21,8 @@ layout(std430, set = 0, binding = 4) buffer NodeProbe { BvhNode nodeProbe[]; };
 layout(std430, set = 0, binding = 5) buffer AffineProbe { Affine affineProbe[]; };
 layout(std430, set = 0, binding = 6) buffer InstanceProbe { InstanceRecord instanceProbe[]; };
 layout(std430, set = 0, binding = 7) buffer ViewProbe { TraceView viewProbe[]; };
+layout(std430, set = 0, binding = 8) buffer RayProbe { TraceRay rayProbe[]; };
+layout(std430, set = 0, binding = 9) buffer HitProbe { RayHit hitProbe[]; };
 
 uint S(uint s, uint e, uint k) { return 0x40000000u | (s << 16) | (e << 8) | k; }
 float F(uint s, uint e, uint k) { return uintBitsToFloat(S(s, e, k)); }
@@ -73,5 +76,15 @@ void main() {
     viewProbe[e].eyeLow = F4(7u, e, 36u);
     viewProbe[e].rect = I4(7u, e, 40u);
     viewProbe[e].info = I4(7u, e, 44u);
+
+    rayProbe[e].originHigh = F4(8u, e, 0u);
+    rayProbe[e].originLow = F4(8u, e, 4u);
+    rayProbe[e].direction = F4(8u, e, 8u);
+
+    hitProbe[e].voxel = I4(9u, e, 0u);
+    hitProbe[e].t = F(9u, e, 4u);
+    hitProbe[e].instance = S(9u, e, 5u);
+    hitProbe[e].material = S(9u, e, 6u);
+    hitProbe[e].hit = S(9u, e, 7u);
   }
 }

@@ -12,7 +12,8 @@
 namespace vs {
 
 struct GpuStructLayout {
-  std::string name;     // Region, Sector, Brick, ObjectRecord, BvhNode, Affine, InstanceRecord, TraceView
+  std::string name;     // Region, Sector, Brick, ObjectRecord, BvhNode, Affine, InstanceRecord, TraceView,
+                        // TraceRay, RayHit
   std::int64_t stride;  // array stride in bytes (the std430 size); -1 when not found
   // Byte offset of each scalar of element 0, in declaration order (vectors component by component,
   // matrices column by column); -1 where the shader's write was not found.
