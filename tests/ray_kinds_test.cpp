@@ -1,9 +1,11 @@
-// The closest-hit and any-hit ray kinds (compute/shared/trace_rays.h) through every backend: the CPU reference,
-// the CPU fast path (eight AVX2 lanes where the processor has them), the portable CPU tiles and the Vulkan shader
-// give identical records bit for bit on a seeded battery of more than a million rays; any-hit agrees with
+// The three ray kinds (shadow texels, and the closest-hit and any-hit rays of compute/shared/trace_rays.h) through
+// every backend: the CPU reference, the CPU fast path (eight AVX2 lanes where the processor has them), the
+// portable CPU tiles and the Vulkan shader give identical results bit for bit on a seeded battery of more than a
+// million rays of each kind; any-hit agrees with
 // "a closest hit exists" on every ray; and the records agree with the independent double-precision reference.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <random>
 
@@ -206,7 +208,7 @@ class RayKinds : public ::testing::Test {
 };
 Tracer* RayKinds::vulkan_ = nullptr;
 
-// 4 scenes x 262,144 rays: 1,048,576 rays of each kind through each backend.
+// 4 scenes x 262,144 rays: 1,048,576 rays of each kind through each backend, and as many shadow texels.
 TEST_F(RayKinds, EveryBackendGivesTheSameRecordsOnAMillionRays) {
   constexpr std::size_t kRaysPerScene = 262144;
   std::vector<TestScene> scenes;
@@ -216,7 +218,7 @@ TEST_F(RayKinds, EveryBackendGivesTheSameRecordsOnAMillionRays) {
   scenes.push_back(singleObjectScene(glm::dvec3(-1.0e5, 2.0e3, 1.0e5)));
   const bool lanes = laneTracerSupported(scenes[0].data);
   if (!lanes) std::printf("note: this processor has no AVX2; the fast path runs the portable tiles only\n");
-  std::size_t total = 0, hits = 0, faces = 0, starts = 0;
+  std::size_t total = 0, hits = 0, faces = 0, starts = 0, texels = 0, texelHits = 0;
   for (std::size_t s = 0; s < scenes.size(); ++s) {
     const TestScene& scene = scenes[s];
     SCOPED_TRACE("scene " + std::to_string(s) + " (" + scene.name + ")");
@@ -235,6 +237,38 @@ TEST_F(RayKinds, EveryBackendGivesTheSameRecordsOnAMillionRays) {
       EXPECT_EQ(r.occluded, ref.occluded);
       EXPECT_EQ(anyHitDisagreements(r), 0u);
     }
+    // Shadow texels of four 256^2 views per scene: directional, and spot-like views from 1 to 90 degrees wide,
+    // half of them with the depth at the voxel centre.
+    std::mt19937 rng(std::uint32_t(500 + s));
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    const Aabb& b = scene.data.worldBounds;
+    const glm::vec3 centre = (b.min + b.max) * 0.5f;
+    const float reach = glm::length(b.max - b.min);
+    std::vector<gpu::TraceView> views;
+    views.push_back(test::directionalView(b, glm::vec3(-0.4f, -1.0f, -0.3f), 256));
+    for (int v = 0; v < 3; ++v) {
+      glm::vec3 dir = glm::normalize(glm::vec3(unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5));
+      glm::vec3 position = centre - dir * reach * float(0.3 + unit(rng));
+      views.push_back(test::distanceView(position, centre - position, reach * 3.0f, 256, float(1.0 + 89.0 * unit(rng))));
+    }
+    for (std::size_t v = 0; v < views.size(); v += 2) views[v].info.w = gpu::VS_DEPTH_POINT_VOXEL_CENTER;
+    std::vector<ShadowLayer> refLayers;
+    reference->traceShadow(views, refLayers);
+    for (Tracer* t : {fast.get(), tiles.get(), vulkan_}) {
+      SCOPED_TRACE(t->backend() + " shadow texels");
+      std::vector<ShadowLayer> layers;
+      t->traceShadow(views, layers);
+      for (std::size_t v = 0; v < views.size(); ++v)
+        EXPECT_EQ(std::memcmp(layers[v].texels.data(), refLayers[v].texels.data(), layers[v].texels.size() * sizeof(float)), 0)
+            << "view " << v;
+    }
+    for (std::size_t v = 0; v < views.size(); ++v) {
+      const float miss = views[v].info.z == gpu::VS_ENCODING_NDC_DEPTH ? 1.0f : views[v].eyeHigh.w;
+      texels += refLayers[v].texels.size();
+      texelHits += std::size_t(std::count_if(refLayers[v].texels.begin(), refLayers[v].texels.end(),
+                                             [&](float t) { return t < miss; }));
+    }
+
     for (const gpu::RayHit& h : ref.hits) {
       hits += h.hit;
       faces += h.hit && h.voxel.w != int(gpu::VS_FACE_NONE);
@@ -246,10 +280,12 @@ TEST_F(RayKinds, EveryBackendGivesTheSameRecordsOnAMillionRays) {
     }
     total += rays.size();
   }
-  std::printf("%zu rays, %zu hits (%zu through a face, %zu starting inside a solid voxel)\n", total, hits, faces,
-              starts);
+  std::printf("%zu rays, %zu hits (%zu through a face, %zu starting inside a solid voxel); %zu shadow texels, %zu hit\n",
+              total, hits, faces, starts, texels, texelHits);
   // The battery exercises what it claims to: most rays hit, and some start inside solids.
   EXPECT_GE(total, 1000000u);
+  EXPECT_GE(texels, 1000000u);
+  EXPECT_GT(texelHits, texels / 10);
   EXPECT_GT(hits, total / 4);
   EXPECT_GT(starts, total / 50);
   EXPECT_TRUE(vulkan_->vulkan()->validationMessages().empty());
