@@ -47,7 +47,7 @@ gpu::InstanceRecord makeInstanceRecord(const glm::dmat4& brickToWorld, const Vox
   glm::dvec3 centre = objectVoxels.empty()
                           ? glm::dvec3(0.0)
                           : (glm::dvec3(objectVoxels.min) + glm::dvec3(objectVoxels.max)) * 0.5;
-  glm::vec3 anchor(glm::dvec3(brickToWorld * glm::dvec4(centre, 1.0)));
+  glm::vec3 anchor = gpu::roundedToFloat(glm::dvec3(brickToWorld * glm::dvec4(centre, 1.0)));
   glm::dmat4 toAnchor(1.0), fromAnchor(1.0);
   toAnchor[3] = glm::dvec4(-glm::dvec3(anchor), 1.0);
   fromAnchor[3] = glm::dvec4(glm::dvec3(anchor), 1.0);

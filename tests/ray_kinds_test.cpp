@@ -405,6 +405,37 @@ TEST(RayKindsShared, EntryFaceAndMaterialAtTies) {
   EXPECT_TRUE(sa.vsAnyHit(sa.vsTraceRayToWorld(gpu::makeTraceRay({20.0, 1.5, 0.5}, {-1, 0, 0}, 0.0f, 10.5f))));
 }
 
+// The host's exact splits: a ray origin into high + low floats, and an instance's affines taken about its float
+// anchor. Both subtract the rounded value from the double one, so the rounding must really happen (a compiler
+// that keeps a float conversion at double precision makes the low part zero and the affines miss the anchor
+// by up to half an ulp of the position: 5e-4 at 10^4 units).
+TEST(RayKindsShared, HostSplitsRoundExactly) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> coord(-1.0e5, 1.0e5), unit(0.0, 1.0);
+  for (int i = 0; i < 2000; ++i) {
+    glm::dvec3 o(coord(rng), coord(rng), coord(rng));
+    gpu::TraceRay r = gpu::makeTraceRay(o, {0.0, 0.0, 1.0}, 0.0f, 1.0f);
+    for (int a = 0; a < 3; ++a) {
+      const double high = r.originHigh[a], low = r.originLow[a];
+      ASSERT_EQ(high, double(float(o[a]))) << "axis " << a;
+      ASSERT_LE(std::abs(high + low - o[a]), std::abs(o[a]) * 1e-14) << "axis " << a;
+    }
+    glm::dmat4 m = glm::translate(glm::dmat4(1.0), o);
+    m = glm::rotate(m, unit(rng) * 6.283, glm::normalize(glm::dvec3(unit(rng) - 0.5, 1.0, unit(rng) - 0.5)));
+    m = glm::scale(m, glm::dvec3(0.25 + unit(rng)));
+    const VoxelBox box{glm::ivec3(0), glm::ivec3(48, 40, 48)};
+    gpu::InstanceRecord rec = makeInstanceRecord(m, box, 0u, 0u, nullptr);
+    // The record's brickToWorld, in double, maps the box centre to its world position less the stored anchor.
+    const glm::dvec3 centre(24.0, 20.0, 24.0);
+    const glm::dvec3 world(m * glm::dvec4(centre, 1.0));
+    const glm::dvec3 anchor(glm::vec3(rec.anchor));
+    const gpu::Affine& b = rec.brickToWorld;
+    const glm::dvec3 rel(glm::dot(glm::dvec4(b.row0), glm::dvec4(centre, 1.0)), glm::dot(glm::dvec4(b.row1), glm::dvec4(centre, 1.0)),
+                         glm::dot(glm::dvec4(b.row2), glm::dvec4(centre, 1.0)));
+    ASSERT_LE(glm::length(rel - (world - anchor)), 1e-4) << "instance at " << o.x << " " << o.y << " " << o.z;
+  }
+}
+
 TEST_F(RayKinds, MismatchedOutputsAreRefused) {
   TestScene scene = singleObjectScene(glm::dvec3(0.0));
   std::vector<gpu::TraceRay> rays = rayBattery(scene, 10, 1);

@@ -29,6 +29,17 @@
   using namespace glm;     \
   using uint = std::uint32_t;
 #define VS_NAMESPACE_END }
+// v rounded to float, component by component, with the rounding guaranteed to happen. The exact splits of the
+// host (an eye or ray origin into high + low floats, an instance's anchor) subtract the rounded value from the
+// double one; GCC 12's vectorizer was seen keeping a glm double-to-float conversion at double precision
+// (-O2, and -O3 -march=native), which made such a low part zero and an anchor differ from the one stored.
+// A volatile store cannot be elided.
+namespace vs::gpu {
+inline glm::vec3 roundedToFloat(const glm::dvec3& v) {
+  volatile float x = static_cast<float>(v.x), y = static_cast<float>(v.y), z = static_cast<float>(v.z);
+  return glm::vec3(x, y, z);
+}
+}  // namespace vs::gpu
 #define VS_LAYOUT_CHECK(Type, size) \
   static_assert(sizeof(Type) == (size), #Type " size must match std430 layout")
 #define VS_OFFSET_CHECK(Type, member, offset) \

@@ -73,7 +73,7 @@ inline TraceView makeTraceView(const glm::dmat4& worldToClip, const glm::dvec3& 
   TraceView view{};
   view.viewProj = glm::mat4(worldToClip);
   view.clipToEye = glm::mat4(glm::inverse(eyeToClip(worldToClip, eye)));
-  glm::vec3 high(eye);
+  glm::vec3 high = roundedToFloat(eye);
   view.eyeHigh = glm::vec4(high, range);
   view.eyeLow = glm::vec4(glm::vec3(eye - glm::dvec3(high)), 0.0f);
   view.rect = glm::ivec4(0, 0, width, height);
