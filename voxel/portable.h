@@ -39,6 +39,11 @@ inline glm::vec3 roundedToFloat(const glm::dvec3& v) {
   volatile float x = static_cast<float>(v.x), y = static_cast<float>(v.y), z = static_cast<float>(v.z);
   return glm::vec3(x, y, z);
 }
+// v as high + low floats (their sum holds v to about 48 bits): high is v rounded, low the rest, rounded.
+inline void splitToFloats(const glm::dvec3& v, glm::vec3& high, glm::vec3& low) {
+  high = roundedToFloat(v);
+  low = glm::vec3(v - glm::dvec3(high));
+}
 }  // namespace vs::gpu
 #define VS_LAYOUT_CHECK(Type, size) \
   static_assert(sizeof(Type) == (size), #Type " size must match std430 layout")

@@ -117,65 +117,63 @@ void CpuTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowL
 // Rays are handed out in chunks of this many: a chunk is one lane stream, long enough that lanes stay full.
 constexpr std::size_t kRayChunk = 1024;
 
-// Rays [r.begin, r.end) of one kind on the chosen path: lanes, portable tiles, or one at a time through the
-// reference (`reference(i)` traces ray i).
+// Every ray of one kind on the chosen path, in chunks over the threads: lanes (`laneTrace(first, count)`),
+// portable tiles (`source`), or one at a time through the reference (`reference(i)`).
 template <class Source, class Lanes, class Reference>
-void traceRayRange(gpu::SceneArrays& arrays, CpuTracePath path, bool lanes, Source source,
-                   const tbb::blocked_range<std::size_t>& r, Lanes&& laneTrace, Reference&& reference) {
-  if (lanes) {
-    laneTrace(r.begin(), r.size());
-  } else if (path != CpuTracePath::Reference) {
-    source.cursor = r.begin();
-    source.end = r.end();
-    traceInterleaved(arrays, source);
-  } else {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) reference(i);
-  }
+void traceRayKind(gpu::SceneArrays& arrays, std::size_t count, CpuTracePath path, bool lanes, Source source,
+                  Lanes&& laneTrace, Reference&& reference) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, kRayChunk), [&](const auto& r) {
+    if (lanes) {
+      laneTrace(r.begin(), r.size());
+    } else if (path != CpuTracePath::Reference) {
+      Source chunk = source;
+      chunk.cursor = r.begin();
+      chunk.end = r.end();
+      traceInterleaved(arrays, chunk);
+    } else {
+      for (std::size_t i = r.begin(); i != r.end(); ++i) reference(i);
+    }
+  });
+}
+
+void checkOutputLength(const char* call, std::size_t outputs, std::size_t rays) {
+  if (outputs != rays)
+    throwBadInput(std::string(call) + ": " + std::to_string(outputs) + " results for " + std::to_string(rays) + " rays");
 }
 
 void CpuTracer::traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits, CpuTracePath path,
                              int threads) {
-  if (hits.size() != rays.size())
-    throwBadInput("traceClosest: " + std::to_string(hits.size()) + " hit records for " + std::to_string(rays.size()) +
-                  " rays");
+  checkOutputLength("traceClosest", hits.size(), rays.size());
   gpu::SceneArrays arrays(*scene_);
   rays::ClosestSource source;
   source.rays = rays;
   source.hits = hits.data();
   inArena(threads, [&] {
     if (path == CpuTracePath::Interleaved) ensureTables();
-    const bool lanes = path == CpuTracePath::Interleaved && lanes_;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), kRayChunk), [&](const auto& r) {
-      traceRayRange(
-          arrays, path, lanes, source, r,
-          [&](std::size_t first, std::size_t n) {
-            traceClosestLanes(arrays, *tables_, rays.subspan(first, n), hits.subspan(first, n));
-          },
-          [&](std::size_t i) { hits[i] = arrays.vsClosestHit(arrays.vsTraceRayToWorld(rays[i])); });
-    });
+    traceRayKind(
+        arrays, rays.size(), path, path == CpuTracePath::Interleaved && lanes_, source,
+        [&](std::size_t first, std::size_t n) {
+          traceClosestLanes(arrays, *tables_, rays.subspan(first, n), hits.subspan(first, n));
+        },
+        [&](std::size_t i) { hits[i] = arrays.vsClosestHit(arrays.vsTraceRayToWorld(rays[i])); });
   });
 }
 
 void CpuTracer::traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded, CpuTracePath path,
                          int threads) {
-  if (occluded.size() != rays.size())
-    throwBadInput("traceAny: " + std::to_string(occluded.size()) + " results for " + std::to_string(rays.size()) +
-                  " rays");
+  checkOutputLength("traceAny", occluded.size(), rays.size());
   gpu::SceneArrays arrays(*scene_);
   rays::AnySource source;
   source.rays = rays;
   source.occluded = occluded.data();
   inArena(threads, [&] {
     if (path == CpuTracePath::Interleaved) ensureTables();
-    const bool lanes = path == CpuTracePath::Interleaved && lanes_;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), kRayChunk), [&](const auto& r) {
-      traceRayRange(
-          arrays, path, lanes, source, r,
-          [&](std::size_t first, std::size_t n) {
-            traceAnyLanes(arrays, *tables_, rays.subspan(first, n), occluded.subspan(first, n));
-          },
-          [&](std::size_t i) { occluded[i] = arrays.vsAnyHit(arrays.vsTraceRayToWorld(rays[i])) ? 1u : 0u; });
-    });
+    traceRayKind(
+        arrays, rays.size(), path, path == CpuTracePath::Interleaved && lanes_, source,
+        [&](std::size_t first, std::size_t n) {
+          traceAnyLanes(arrays, *tables_, rays.subspan(first, n), occluded.subspan(first, n));
+        },
+        [&](std::size_t i) { occluded[i] = arrays.vsAnyHit(arrays.vsTraceRayToWorld(rays[i])) ? 1u : 0u; });
   });
 }
 

@@ -43,9 +43,10 @@ namespace vs::gpu {
 // A ray from an origin in double: the origin is split into two floats before any rounding.
 inline TraceRay makeTraceRay(const glm::dvec3& origin, const glm::dvec3& direction, float tMin, float tMax) {
   TraceRay ray{};
-  glm::vec3 high = roundedToFloat(origin);
+  glm::vec3 high, low;
+  splitToFloats(origin, high, low);
   ray.originHigh = glm::vec4(high, tMin);
-  ray.originLow = glm::vec4(glm::vec3(origin - glm::dvec3(high)), tMax);
+  ray.originLow = glm::vec4(low, tMax);
   ray.direction = glm::vec4(glm::vec3(direction), 0.0f);
   return ray;
 }

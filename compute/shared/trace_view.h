@@ -73,9 +73,10 @@ inline TraceView makeTraceView(const glm::dmat4& worldToClip, const glm::dvec3& 
   TraceView view{};
   view.viewProj = glm::mat4(worldToClip);
   view.clipToEye = glm::mat4(glm::inverse(eyeToClip(worldToClip, eye)));
-  glm::vec3 high = roundedToFloat(eye);
+  glm::vec3 high, low;
+  splitToFloats(eye, high, low);
   view.eyeHigh = glm::vec4(high, range);
-  view.eyeLow = glm::vec4(glm::vec3(eye - glm::dvec3(high)), 0.0f);
+  view.eyeLow = glm::vec4(low, 0.0f);
   view.rect = glm::ivec4(0, 0, width, height);
   view.info = glm::ivec4(width, height, encoding, depthPoint);
   return view;

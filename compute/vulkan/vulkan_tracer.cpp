@@ -586,17 +586,10 @@ struct VulkanTracer::Impl {
       viewPipelines[i] = variant(TracePipelineOptions{.splitBindings = useSplit,
                                                       .boxTable = boxTableUploaded,
                                                       .depthAtCenter = views[i].info.w == gpu::VS_DEPTH_POINT_VOXEL_CENTER});
-    TracePush push{};
-    push.nodeCount = nodeCount;
-    for (int a = 0; a < kSplitArrayCount; ++a) pushShifts(push)[a] = split[a].shift;
+    TracePush push = scenePush();
 
     context.submitAndWait([&](VkCommandBuffer cmd) {
-      // Earlier uploads, host writes of the views, and the previous readback all precede this dispatch.
-      auto before = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
-      before.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_WRITE_BIT;
-      before.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
-                           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
+      barrierBeforeDispatch(cmd);
       const std::uint32_t queries = layerCount + 1;
       if (queryPool) {
         vkCmdResetQueryPool(cmd, queryPool.get(), 0, queries);
@@ -673,6 +666,23 @@ struct VulkanTracer::Impl {
     return stats;
   }
 
+  // Earlier uploads, host writes (views, rays) and the previous readback all precede a dispatch.
+  static void barrierBeforeDispatch(VkCommandBuffer cmd) {
+    auto before = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+    before.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_WRITE_BIT;
+    before.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
+  }
+
+  // The push block's scene fields: the node count and each split array's chunk shift.
+  TracePush scenePush() const {
+    TracePush push{};
+    push.nodeCount = nodeCount;
+    for (int a = 0; a < kSplitArrayCount; ++a) pushShifts(push)[a] = split[a].shift;
+    return push;
+  }
+
   // Closest- or any-hit rays: the rays go up through a host-visible buffer, each workgroup takes
   // VS_RAYS_PER_GROUP of them, and the results come back the same way; `out` receives rays.size() results of
   // `resultBytes` each.
@@ -714,17 +724,11 @@ struct VulkanTracer::Impl {
                                                    .boxTable = boxTableUploaded,
                                                    .depthAtCenter = false,
                                                    .rayKind = kind});
-    TracePush push{};
-    push.nodeCount = nodeCount;
-    for (int a = 0; a < kSplitArrayCount; ++a) pushShifts(push)[a] = split[a].shift;
+    TracePush push = scenePush();
     push.rayCount = static_cast<std::uint32_t>(rays.size());
     ensureQueries(2);
     context.submitAndWait([&](VkCommandBuffer cmd) {
-      auto before = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
-      before.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_WRITE_BIT;
-      before.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
-                           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
+      barrierBeforeDispatch(cmd);
       if (queryPool) {
         vkCmdResetQueryPool(cmd, queryPool.get(), 0, 2);
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queryPool.get(), 0);

@@ -95,6 +95,17 @@ bool traceGrid(Intersector& inter, const openvdb::BoolGrid::ConstAccessor& acc, 
   return false;
 }
 
+// Runs `run` on `threads` threads (<= 0: all).
+template <class Run>
+void inArena(int threads, const Run& run) {
+  if (threads > 0) {
+    tbb::task_arena arena(threads);
+    arena.execute(run);
+  } else {
+    run();
+  }
+}
+
 }  // namespace
 
 bool OpenVdbPeer::trace(const glm::vec3& o, const glm::vec3& d, double tMin, double tMax, double& tHit,
@@ -121,12 +132,7 @@ std::vector<std::uint8_t> OpenVdbPeer::traceRays(std::span<const gpu::TraceRay> 
       }
     });
   };
-  if (threads > 0) {
-    tbb::task_arena arena(threads);
-    arena.execute(run);
-  } else {
-    run();
-  }
+  inArena(threads, run);
   return out;
 }
 
@@ -194,12 +200,7 @@ std::vector<std::vector<float>> OpenVdbPeer::traceViews(const SceneData& scene, 
       });
     }
   };
-  if (threads > 0) {
-    tbb::task_arena arena(threads);
-    arena.execute(run);
-  } else {
-    run();
-  }
+  inArena(threads, run);
   return out;
 }
 
