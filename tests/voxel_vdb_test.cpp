@@ -1,5 +1,6 @@
 // Loading .vdb files: solid rules against OpenVDB itself, world mapping, palettes and bad input.
 #include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -458,4 +459,168 @@ TEST(VdbLoad, TruncatedFilesAreRefused) {
       EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0);
     }
   }
+}
+
+namespace {
+
+std::string readBytes(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+void writeBytes(const fs::path& file, const std::string& bytes) {
+  std::ofstream(file, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
+}
+
+// The bytes with the byte at `offset` from the start of `pattern`'s one occurrence set to `value`.
+std::string patched(const std::string& bytes, const std::string& pattern, std::size_t offset, char value) {
+  const std::size_t at = bytes.find(pattern);
+  EXPECT_NE(at, std::string::npos) << "pattern not found";
+  EXPECT_EQ(bytes.find(pattern, at + 1), std::string::npos) << "pattern found twice";
+  if (at == std::string::npos) return bytes;
+  std::string out = bytes;
+  out[at + offset] = value;
+  return out;
+}
+
+std::string int32Bytes(std::int32_t v) {
+  std::string s(4, '\0');
+  std::memcpy(s.data(), &v, 4);
+  return s;
+}
+
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
+#else
+constexpr bool kSanitized = false;
+#endif
+
+// The error of loading `file`: the same with and without the checking process, and from inspectVdb.
+std::string refusalOf(const std::string& file) {
+  std::string checked, direct, inspected;
+  try {
+    (void)vs::loadVdb(file);
+    ADD_FAILURE() << file << " loaded";
+  } catch (const vs::Error& e) {
+    EXPECT_EQ(e.kind(), vs::ErrorKind::BadInput) << e.what();
+    checked = e.what();
+  }
+  vs::LoadOptions trusted;
+  trusted.checkInChildProcess = false;
+  try {
+    (void)vs::loadVdb(file, trusted);
+    ADD_FAILURE() << file << " loaded without the checking process";
+  } catch (const vs::Error& e) {
+    direct = e.what();
+  }
+  try {
+    (void)vs::inspectVdb(file);
+    ADD_FAILURE() << file << " inspected";
+  } catch (const vs::Error& e) {
+    inspected = e.what();
+  }
+  EXPECT_EQ(checked, direct);
+  EXPECT_EQ(checked, inspected);
+  return checked;
+}
+
+// A file holding a bool (tile value, active flag, metadata) that is neither 0 nor 1 is refused with `message`. In the
+// sanitized build this binary holds instrumented copies of OpenVDB's tree reading (header templates, which
+// libopenvdb.so then calls too): OpenVDB copies the bool while reading it, and UBSan ends the checking
+// process before the loader's check can run. The file is refused as damaged all the same, naming the grid;
+// only the checked path is taken there (reading in this process would end the test).
+void expectDamagedBool(const std::string& file, const std::string& grid, const std::string& message) {
+  if (!kSanitized) {
+    EXPECT_EQ(refusalOf(file), message);
+    return;
+  }
+  try {
+    (void)vs::loadVdb(file);
+    ADD_FAILURE() << file << " loaded";
+  } catch (const vs::Error& e) {
+    EXPECT_EQ(e.kind(), vs::ErrorKind::BadInput) << e.what();
+    const std::string died = file + ": damaged VDB file: OpenVDB's reader failed on grid 0 '" + grid +
+                             "' (it exited with status 99 in a checking process); the file was not loaded";
+    if (e.what() != message) {
+      EXPECT_EQ(e.what(), died);
+    }
+  }
+}
+
+}  // namespace
+
+// OpenVDB copies a bool tile value from the file into a bool without checking it: in this mutated file a
+// bool grid's tile value (in an internal node) is the byte 2, which the loader's voxel count then loaded as a
+// bool, undefined behaviour that UBSan reported in the vdb fuzz target. The file is refused as damaged before
+// anything of the loader reads the value.
+TEST(VdbLoad, BoolTileValueThatIsNotZeroOrOneIsRefused) {
+  const std::string file =
+      (fs::path(VOXSHADOW_SOURCE_DIR) / "tests/fuzz/regressions/vdb/ubsan-bool-tile-value.vdb").string();
+  ASSERT_TRUE(fs::is_regular_file(file)) << file;
+  expectDamagedBool(file, "b", file + ": damaged VDB file: grid 0 'b' has a tile value at (24, 120, 56) stored as the "
+                                      "byte 2, not a bool (0 or 1)");
+  std::string out;
+  EXPECT_EQ(vs::test::runCli("info " + vs::test::quote(file), out), 2) << out;
+  EXPECT_TRUE(vs::test::contains(out, file + ": damaged VDB file: ")) << out;
+  EXPECT_TRUE(vs::test::contains(out, "grid 0 'b'")) << out;
+}
+
+// Every other bool OpenVDB copies from a file unchecked is read as a byte too: an internal node's tile value,
+// a root tile's active flag (any grid type) and bool metadata. Each file loads before one byte is changed.
+TEST(VdbLoad, EveryStoredBoolIsCheckedAsAByte) {
+  openvdb::initialize();
+  const fs::path dir = vs::test::scratchDir("vdb_stored_bools");
+
+  // Tiles of 8^3 voxels in an internal node, at table offsets 0, 3 and 7: written uncompressed, the node's
+  // values hold 1 0 0 1 0 0 0 1.
+  auto mask = openvdb::BoolGrid::create(false);
+  mask->setName("mask");
+  for (int z : {0, 24, 56}) mask->tree().addTile(1, openvdb::Coord(0, 0, z), true, true);
+  const fs::path maskFile = dir / "mask.vdb";
+  {
+    openvdb::io::File out(maskFile.string());
+    out.setCompression(openvdb::io::COMPRESS_NONE);
+    out.write({mask});
+  }
+  EXPECT_EQ(vs::loadVdb(maskFile.string()).brickmap.solidCount(), 3u * 512u);
+  const std::string maskBytes = readBytes(maskFile);
+  writeBytes(maskFile, patched(maskBytes, std::string("\1\0\0\1\0\0\0\1", 8), 3, '\2'));
+  expectDamagedBool(maskFile.string(), "mask",
+                   maskFile.string() + ": damaged VDB file: grid 0 'mask' has a tile value at (0, 0, 24) stored as "
+                                       "the byte 2, not a bool (0 or 1)");
+
+  // An inactive root tile of a fog grid: coordinates, value 0.5, active flag 0.
+  auto fog = openvdb::FloatGrid::create(0.0f);
+  fog->setName("density");
+  fog->tree().setValueOn(openvdb::Coord(1, 2, 3), 1.0f);
+  fog->tree().addTile(3, openvdb::Coord(8192, 0, 0), 0.5f, false);
+  const fs::path fogFile = dir / "fog.vdb";
+  openvdb::io::File(fogFile.string()).write({fog});
+  EXPECT_EQ(vs::loadVdb(fogFile.string()).brickmap.solidCount(), 1u);
+  const float half = 0.5f;
+  std::string tile = int32Bytes(8192) + int32Bytes(0) + int32Bytes(0) + std::string(4, '\0') + std::string(1, '\0');
+  std::memcpy(tile.data() + 12, &half, 4);
+  writeBytes(fogFile, patched(readBytes(fogFile), tile, 16, '\3'));
+  expectDamagedBool(fogFile.string(), "density",
+                   fogFile.string() + ": damaged VDB file: grid 0 'density' has a tile at (8192, 0, 0) whose active "
+                                      "flag is stored as the byte 3, not a bool (0 or 1)");
+
+  // Bool metadata: name, type name "bool", size 1, the byte.
+  auto meta = openvdb::BoolGrid::create(false);
+  meta->setName("flagged");
+  meta->tree().setValueOn(openvdb::Coord(0, 0, 0), true);
+  meta->insertMeta("is_flagged", openvdb::BoolMetadata(true));
+  const fs::path metaFile = dir / "meta.vdb";
+  openvdb::io::File(metaFile.string()).write({meta});
+  EXPECT_EQ(vs::loadVdb(metaFile.string()).brickmap.solidCount(), 1u);
+  const std::string record = "is_flagged" + int32Bytes(4) + "bool" + int32Bytes(1) + "\1";
+  writeBytes(metaFile, patched(readBytes(metaFile), record, record.size() - 1, '\xff'));
+  expectDamagedBool(metaFile.string(), "flagged", metaFile.string() + ": damaged VDB file: grid 0 'flagged' has the metadata 'is_flagged' stored as "
+                                       "the byte 255, not a bool (0 or 1)");
 }

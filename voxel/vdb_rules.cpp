@@ -13,7 +13,9 @@
 #include <cstdio>
 #include <istream>
 #include <new>
+#include <stdexcept>
 #include <streambuf>
+#include <type_traits>
 
 #include <fcntl.h>
 #include <signal.h>
@@ -91,10 +93,19 @@ struct ReadProgress {
   char refusal[8192] = {}; // done == 2: the error message, cut to fit
 };
 
+// A value OpenVDB copied from the file without checking it, invalid for its type. The message names the grid
+// and the value, not the file.
+class DamagedValue : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 // The error message for the exception being handled (called inside a catch block).
 std::string refusalOf(const std::string& path) {
   try {
     throw;
+  } catch (const DamagedValue& e) {
+    return path + ": damaged VDB file: " + e.what();
   } catch (const openvdb::Exception& e) {
     return path + ": not a readable VDB file (" + printable(e.what()) + ")";
   } catch (const std::bad_alloc&) {
@@ -106,6 +117,83 @@ std::string refusalOf(const std::string& path) {
   } catch (...) {
     return path + ": not a readable VDB file";
   }
+}
+
+// OpenVDB reads the bools of a tree (grid background, tile values, a root tile's active flag) and bool
+// metadata by copying bytes from the file into them, unchecked: a damaged file can leave a bool whose byte is
+// neither 0 nor 1, and loading such a bool is undefined behaviour (UBSan reports it; an optimised build may
+// take it for true and false at once). These read each such byte as a byte once the grid is read, and refuse
+// the grid if one is neither 0 nor 1, before voxshadow loads any of them. Refusing, rather than reading the
+// byte as true: no VDB writer stores another byte, so the file is damaged, and OpenVDB's own code (its
+// reader's copies, its tree operations) would go on loading the value.
+unsigned byteOf(const bool& b) {
+  unsigned char c;
+  std::memcpy(&c, &b, 1);
+  return c;
+}
+
+std::string coordText(const openvdb::Coord& c) {
+  return "(" + std::to_string(c.x()) + ", " + std::to_string(c.y()) + ", " + std::to_string(c.z()) + ")";
+}
+
+[[noreturn]] void refuseBool(const std::string& label, const std::string& what, unsigned byte) {
+  throw DamagedValue(label + " has " + what + " stored as the byte " + std::to_string(byte) +
+                     ", not a bool (0 or 1)");
+}
+
+// A root tile's active flag lives beside its value in a node of the root's table, which OpenVDB reaches only
+// by loading the flag (isValueOn); the root's value iterators hold the table iterator (protected).
+template <class RootT>
+class RootTileFlags : public RootT::ValueAllCIter {
+ public:
+  explicit RootTileFlags(const typename RootT::ValueAllCIter& it) : RootT::ValueAllCIter(it) {}
+  const bool& activeFlag() const { return this->mIter->second.tile.active; }
+};
+
+// The tile values of an internal node and of the internal nodes below it (the leaf nodes of bool trees hold
+// their values as bits). The node's table, not OpenVDB's value iterators: a bool tree's top internal node
+// alone has 32,768 entries, and the iterators cost more than the reading.
+template <class NodeT>
+void checkTileBytes(const NodeT& node, const std::string& label) {
+  if constexpr (NodeT::LEVEL > 0) {
+    const auto* table = node.getTable();
+    const auto& children = node.getChildMask();
+    for (openvdb::Index i = 0; i < NodeT::NUM_VALUES; ++i)
+      if (children.isOff(i))
+        if (unsigned b = byteOf(table[i].getValue()); b > 1)
+          refuseBool(label, "a tile value at " + coordText(node.offsetToGlobalCoord(i)), b);
+    for (auto child = node.cbeginChildOn(); child; ++child) checkTileBytes(*child, label);
+  }
+}
+
+template <class GridT>
+void checkStoredBools(const GridT& grid, const std::string& label) {
+  using TreeT = typename GridT::TreeType;
+  using RootT = typename TreeT::RootNodeType;
+  const TreeT& tree = grid.tree();
+  constexpr bool boolValues = std::is_same_v<typename TreeT::ValueType, bool>;
+  if constexpr (boolValues)
+    if (unsigned b = byteOf(tree.background()); b > 1) refuseBool(label, "a background value", b);
+  for (RootTileFlags<RootT> it(tree.root().cbeginValueAll()); it; it.next()) {
+    if (unsigned b = byteOf(it.activeFlag()); b > 1)
+      refuseBool(label, "a tile at " + coordText(it.getCoord()) + " whose active flag is", b);
+    if constexpr (boolValues)
+      if (unsigned b = byteOf(it.getValue()); b > 1) refuseBool(label, "a tile value at " + coordText(it.getCoord()), b);
+  }
+  if constexpr (boolValues)
+    for (auto child = tree.root().cbeginChildOn(); child; ++child) checkTileBytes(*child, label);
+  for (auto m = grid.beginMeta(); m != grid.endMeta(); ++m) {
+    if (m->second && m->second->typeName() == openvdb::BoolMetadata::staticTypeName()) {
+      const auto& meta = static_cast<const openvdb::BoolMetadata&>(*m->second);
+      if (unsigned b = byteOf(meta.value()); b > 1)
+        refuseBool(label, "the metadata '" + printable(m->first) + "'", b);
+    }
+  }
+}
+
+// Throws DamagedValue for a grid holding a bool that is neither 0 nor 1 (see byteOf).
+void checkStoredBools(const openvdb::GridBase& grid, const std::string& label) {
+  grid.apply<openvdb::GridTypes>([&](const auto& typed) { checkStoredBools(typed, label); });
 }
 
 // The reading io::Stream(is, delayLoad=false) does (OpenVDB 10, Stream.cc), step by step, so that the grid
@@ -144,6 +232,8 @@ class GridReader : public openvdb::io::Archive {
       if (grid) grid->setSaveFloatAsHalf(gd.saveFloatAsHalf());
       if (keep) keep->push_back(grid);
       Archive::readGrid(grid, gd, is);
+      if (grid) checkStoredBools(*grid, "grid " + std::to_string(i) + " '" +
+                                  printable(openvdb::io::GridDescriptor::nameAsString(gd.uniqueName())) + "'");
       descriptors.push_back(gd);
       grids.push_back(grid);
       named[gd.uniqueName()] = grid;

@@ -26,7 +26,9 @@ void ensureOpenVdbInitialized();
 // into memory once; with `checkInChild` (LoadOptions::checkInChildProcess) a forked child parses those bytes
 // first: a child that dies (OpenVDB overruns a buffer on some damaged files) becomes an error naming the
 // file and the grid being read, one that OpenVDB refused with an exception gives its message, and only a
-// file the child read to its end is parsed by this process, from the same bytes.
+// file the child read to its end is parsed by this process, from the same bytes. A file holding a bool
+// whose byte is neither 0 nor 1 (OpenVDB copies tile values, active flags and bool metadata from the file
+// unchecked) is refused as damaged, naming the grid and the value.
 openvdb::GridPtrVec readVdbGrids(const std::string& path, bool checkInChild = true);
 
 // The human-readable solid rule for a grid, or an empty string when its type has none.
