@@ -624,3 +624,31 @@ TEST(VdbLoad, EveryStoredBoolIsCheckedAsAByte) {
   expectDamagedBool(metaFile.string(), "flagged", metaFile.string() + ": damaged VDB file: grid 0 'flagged' has the metadata 'is_flagged' stored as "
                                        "the byte 255, not a bool (0 or 1)");
 }
+
+// The brickmap's region table has one slot per 128^3 region of the bounds, 2^24 at most: a grid whose bounds
+// need more is refused by the loader before any voxel is extracted, also where each axis alone is within the
+// limit and the product of the three does not fit in 64 bits (2^21 + 1 regions each, from a fuzzed file).
+TEST(VdbLoad, BoundsBeyondTheRegionTableAreRefusedBeforeExtraction) {
+  openvdb::initialize();
+  const fs::path dir = vs::test::scratchDir("vdb_region_table");
+  auto check = [&](int far, const std::string& name) {
+    auto mask = openvdb::BoolGrid::create(false);
+    mask->setName(name);
+    mask->tree().setValueOn(openvdb::Coord(0, 0, 0), true);
+    mask->tree().setValueOn(openvdb::Coord(far, far, far), true);
+    const fs::path file = dir / (name + ".vdb");
+    openvdb::io::File(file.string()).write({mask});
+    expectBadInput([&] { vs::loadVdb(file.string()); },
+                   {file.string() + ": grid '" + name + "' has index bounds too large for a brickmap (its region "
+                                                        "table would need more than 16777216 slots)"});
+  };
+  check(256 * 128, "just_over");  // 257^3 slots
+  check(1 << 28, "overflowing");  // (2^21 + 1)^3 slots
+  // 256^3 slots fit: the grid loads.
+  auto mask = openvdb::BoolGrid::create(false);
+  mask->tree().setValueOn(openvdb::Coord(0, 0, 0), true);
+  mask->tree().setValueOn(openvdb::Coord(256 * 128 - 1, 256 * 128 - 1, 256 * 128 - 1), true);
+  const fs::path file = dir / "fits.vdb";
+  openvdb::io::File(file.string()).write({mask});
+  EXPECT_EQ(vs::loadVdb(file.string()).brickmap.solidCount(), 2u);
+}

@@ -454,10 +454,17 @@ void guardSize(const GridT& grid, bool allValues, Pred&& pred, const std::string
   if (allValues) run(grid.tree().cbeginValueAll());
   else run(grid.tree().cbeginValueOn());
   if (count == 0) return;
+  // The brickmap's region table has a slot for every 128^3 region of the bounds, at most kMaxRegionSlots in
+  // all. A grid needing more is refused here, before its voxels are extracted, and without overflowing the
+  // product (each factor is checked first, so no product of two exceeds 2^48): three axes of a few million
+  // regions each once overflowed the brickmap's own count.
+  const std::int64_t maxSlots = std::int64_t(Brickmap::kMaxRegionSlots);
+  std::int64_t slots = 1;
   for (int a = 0; a < 3; ++a) {
-    std::int64_t regions = (std::int64_t(bounds.max()[a]) >> 7) - (std::int64_t(bounds.min()[a]) >> 7) + 1;
-    if (regions > std::int64_t(Brickmap::kMaxRegionSlots)) {
-      throwBadInput(file + ": " + gridLabel(grid) + " has index bounds too large for a brickmap");
+    const std::int64_t regions = (std::int64_t(bounds.max()[a]) >> 7) - (std::int64_t(bounds.min()[a]) >> 7) + 1;
+    if (regions > maxSlots || (slots *= regions) > maxSlots) {
+      throwBadInput(file + ": " + gridLabel(grid) + " has index bounds too large for a brickmap (its region table " +
+                    "would need more than " + std::to_string(maxSlots) + " slots)");
     }
   }
 }
