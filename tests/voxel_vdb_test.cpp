@@ -1,9 +1,16 @@
 // Loading .vdb files: solid rules against OpenVDB itself, world mapping, palettes and bad input.
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <thread>
+
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 #include <glm/gtc/matrix_transform.hpp>
@@ -16,6 +23,7 @@
 #include "voxel/demo_world.h"
 #include "voxel/error.h"
 #include "voxel/vdb_info.h"
+#include "voxel/vdb_rules.h"
 #include "voxel/voxel_object.h"
 
 namespace fs = std::filesystem;
@@ -623,6 +631,110 @@ TEST(VdbLoad, EveryStoredBoolIsCheckedAsAByte) {
   writeBytes(metaFile, patched(readBytes(metaFile), record, record.size() - 1, '\xff'));
   expectDamagedBool(metaFile.string(), "flagged", metaFile.string() + ": damaged VDB file: grid 0 'flagged' has the metadata 'is_flagged' stored as "
                                        "the byte 255, not a bool (0 or 1)");
+}
+
+namespace {
+
+// The outcome of loading a file: its grid and solid count, or its error message.
+std::string outcomeOf(const std::string& file, const vs::LoadOptions& options = {}) {
+  try {
+    const vs::VoxelObject obj = vs::loadVdb(file, options);
+    return "loaded " + obj.gridName + " " + std::to_string(obj.brickmap.solidCount());
+  } catch (const vs::Error& e) {
+    return std::string(e.kind() == vs::ErrorKind::BadInput ? "bad input: " : "runtime: ") + e.what();
+  }
+}
+
+std::vector<pid_t> childrenOfThisThread() {
+  std::ifstream in("/proc/self/task/" + std::to_string(::gettid()) + "/children");
+  std::vector<pid_t> out;
+  for (pid_t pid; in >> pid;) out.push_back(pid);
+  return out;
+}
+
+}  // namespace
+
+// One long-lived checking process (as the fuzz target uses) gives every file the verdict and message a fork
+// per file gives, a file on which OpenVDB's reader crashes included; the next file gets a fresh process; one
+// killed between two files is replaced without blaming the next; turning it off ends and reaps it.
+TEST(VdbLoad, PersistentCheckingProcessGivesTheSameVerdicts) {
+  std::vector<std::string> files;
+  for (const fs::path& dir : {vs::test::sharedAssets() / "vdb", vs::test::sharedAssets() / "vdb" / "damaged",
+                              fs::path(VOXSHADOW_SOURCE_DIR) / "tests/fuzz/regressions/vdb",
+                              fs::path(VOXSHADOW_SOURCE_DIR) / "tests/fuzz/seeds/vdb"})
+    for (const auto& e : fs::directory_iterator(dir))
+      if (e.is_regular_file() && e.file_size() < 1000000) files.push_back(e.path().string());
+  std::sort(files.begin(), files.end());
+  const std::string crash =
+      (fs::path(VOXSHADOW_SOURCE_DIR) / "tests/fuzz/regressions/vdb/crash-blosc-uncompressed-length.vdb").string();
+  const std::string good = (vs::test::sharedAssets() / "vdb" / "oiio_fog_sphere.vdb").string();
+  // The crash twice more, between good files: each time the next check needs a new process.
+  files.insert(files.end(), {good, crash, good, crash, crash, good});
+  std::vector<std::string> forked;
+  for (const std::string& f : files) forked.push_back(outcomeOf(f));
+  ASSERT_TRUE(childrenOfThisThread().empty());
+
+  vs::setPersistentCheckingProcess(true);
+  int crashes = 0;
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    const std::string got = outcomeOf(files[i]);
+    EXPECT_EQ(got, forked[i]) << files[i];
+    if (files[i] == crash) {
+      ++crashes;
+      EXPECT_TRUE(vs::test::contains(got, crash + ": damaged VDB file: OpenVDB's reader failed on grid 0 "
+                                                   "'voxel_fog_density' (")) << got;
+    }
+  }
+  EXPECT_EQ(crashes, 4);
+  const std::vector<pid_t> children = childrenOfThisThread();
+  ASSERT_EQ(children.size(), 1u) << "one checking process, alive between files";
+  // Killed while idle: the next file is checked by a new process, not refused.
+  ASSERT_EQ(::kill(children[0], SIGKILL), 0);
+  for (int i = 0; i < 200 && fs::exists("/proc/" + std::to_string(children[0]) + "/status"); ++i) {
+    std::ifstream status("/proc/" + std::to_string(children[0]) + "/status");
+    std::string text((std::istreambuf_iterator<char>(status)), std::istreambuf_iterator<char>());
+    if (vs::test::contains(text, "State:\tZ")) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(outcomeOf(good), forked[files.size() - 1]);
+  const std::vector<pid_t> after = childrenOfThisThread();
+  ASSERT_EQ(after.size(), 1u);
+  EXPECT_NE(after[0], children[0]);
+  // Without the checking process at all the file is still read, in this process.
+  vs::LoadOptions trusted;
+  trusted.checkInChildProcess = false;
+  EXPECT_EQ(outcomeOf(good, trusted), forked[files.size() - 1]);
+
+  vs::setPersistentCheckingProcess(false);
+  EXPECT_TRUE(childrenOfThisThread().empty());
+  errno = 0;
+  EXPECT_EQ(::waitpid(-1, nullptr, WNOHANG), -1) << "a checking process was left unreaped";
+  EXPECT_EQ(errno, ECHILD);
+  // Back to a fork per file, which leaves no process behind.
+  EXPECT_EQ(outcomeOf(crash), forked[files.size() - 2]);
+  EXPECT_TRUE(childrenOfThisThread().empty());
+}
+
+// The voxel limit refuses a grid with more solid voxels than it allows, naming it, before extracting any;
+// a grid at the limit loads.
+TEST(VdbLoad, SolidVoxelLimitRefusesLargerGrids) {
+  openvdb::initialize();
+  auto mask = openvdb::BoolGrid::create(false);
+  mask->setName("block");
+  mask->tree().addTile(1, openvdb::Coord(0, 0, 0), true, true);  // 8^3 voxels
+  mask->tree().setValueOn(openvdb::Coord(100, 0, 0), true);
+  const fs::path file = vs::test::scratchDir("vdb_voxel_limit") / "block.vdb";
+  openvdb::io::File(file.string()).write({mask});
+  vs::LoadOptions options;
+  EXPECT_EQ(vs::loadVdb(file.string(), options).brickmap.solidCount(), 513u);
+  options.maxSolidVoxels = 513;
+  EXPECT_EQ(vs::loadVdb(file.string(), options).brickmap.solidCount(), 513u);
+  options.maxSolidVoxels = 512;
+  expectBadInput([&] { vs::loadVdb(file.string(), options); },
+                 {file.string() + ": grid 'block' has more than 512 solid voxels, more than the loader accepts"});
+  const auto infos = vs::inspectVdb(file.string(), options);
+  ASSERT_EQ(infos.size(), 1u);
+  EXPECT_TRUE(vs::test::contains(infos[0].error, "more than 512 solid voxels")) << infos[0].error;
 }
 
 // The brickmap's region table has one slot per 128^3 region of the bounds, 2^24 at most: a grid whose bounds
