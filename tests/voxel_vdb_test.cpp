@@ -1,8 +1,16 @@
 // Loading .vdb files: solid rules against OpenVDB itself, world mapping, palettes and bad input.
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <csignal>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <thread>
+
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 #include <glm/gtc/matrix_transform.hpp>
@@ -15,6 +23,7 @@
 #include "voxel/demo_world.h"
 #include "voxel/error.h"
 #include "voxel/vdb_info.h"
+#include "voxel/vdb_rules.h"
 #include "voxel/voxel_object.h"
 
 namespace fs = std::filesystem;
@@ -458,4 +467,300 @@ TEST(VdbLoad, TruncatedFilesAreRefused) {
       EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0);
     }
   }
+}
+
+namespace {
+
+std::string readBytes(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+void writeBytes(const fs::path& file, const std::string& bytes) {
+  std::ofstream(file, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
+}
+
+// The bytes with the byte at `offset` from the start of `pattern`'s one occurrence set to `value`.
+std::string patched(const std::string& bytes, const std::string& pattern, std::size_t offset, char value) {
+  const std::size_t at = bytes.find(pattern);
+  EXPECT_NE(at, std::string::npos) << "pattern not found";
+  EXPECT_EQ(bytes.find(pattern, at + 1), std::string::npos) << "pattern found twice";
+  if (at == std::string::npos) return bytes;
+  std::string out = bytes;
+  out[at + offset] = value;
+  return out;
+}
+
+std::string int32Bytes(std::int32_t v) {
+  std::string s(4, '\0');
+  std::memcpy(s.data(), &v, 4);
+  return s;
+}
+
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
+#else
+constexpr bool kSanitized = false;
+#endif
+
+// The error of loading `file`: the same with and without the checking process, and from inspectVdb.
+std::string refusalOf(const std::string& file) {
+  std::string checked, direct, inspected;
+  try {
+    (void)vs::loadVdb(file);
+    ADD_FAILURE() << file << " loaded";
+  } catch (const vs::Error& e) {
+    EXPECT_EQ(e.kind(), vs::ErrorKind::BadInput) << e.what();
+    checked = e.what();
+  }
+  vs::LoadOptions trusted;
+  trusted.checkInChildProcess = false;
+  try {
+    (void)vs::loadVdb(file, trusted);
+    ADD_FAILURE() << file << " loaded without the checking process";
+  } catch (const vs::Error& e) {
+    direct = e.what();
+  }
+  try {
+    (void)vs::inspectVdb(file);
+    ADD_FAILURE() << file << " inspected";
+  } catch (const vs::Error& e) {
+    inspected = e.what();
+  }
+  EXPECT_EQ(checked, direct);
+  EXPECT_EQ(checked, inspected);
+  return checked;
+}
+
+// A file holding a bool (tile value, active flag, metadata) that is neither 0 nor 1 is refused with `message`. In the
+// sanitized build this binary holds instrumented copies of OpenVDB's tree reading (header templates, which
+// libopenvdb.so then calls too): OpenVDB copies the bool while reading it, and UBSan ends the checking
+// process before the loader's check can run. The file is refused as damaged all the same, naming the grid;
+// only the checked path is taken there (reading in this process would end the test).
+void expectDamagedBool(const std::string& file, const std::string& grid, const std::string& message) {
+  if (!kSanitized) {
+    EXPECT_EQ(refusalOf(file), message);
+    return;
+  }
+  try {
+    (void)vs::loadVdb(file);
+    ADD_FAILURE() << file << " loaded";
+  } catch (const vs::Error& e) {
+    EXPECT_EQ(e.kind(), vs::ErrorKind::BadInput) << e.what();
+    const std::string died = file + ": damaged VDB file: OpenVDB's reader failed on grid 0 '" + grid +
+                             "' (it exited with status 99 in a checking process); the file was not loaded";
+    if (e.what() != message) {
+      EXPECT_EQ(e.what(), died);
+    }
+  }
+}
+
+}  // namespace
+
+// OpenVDB copies a bool tile value from the file into a bool without checking it: in this mutated file a
+// bool grid's tile value (in an internal node) is the byte 2, which the loader's voxel count then loaded as a
+// bool, undefined behaviour that UBSan reported in the vdb fuzz target. The file is refused as damaged before
+// anything of the loader reads the value.
+TEST(VdbLoad, BoolTileValueThatIsNotZeroOrOneIsRefused) {
+  const std::string file =
+      (fs::path(VOXSHADOW_SOURCE_DIR) / "tests/fuzz/regressions/vdb/ubsan-bool-tile-value.vdb").string();
+  ASSERT_TRUE(fs::is_regular_file(file)) << file;
+  expectDamagedBool(file, "b", file + ": damaged VDB file: grid 0 'b' has a tile value at (24, 120, 56) stored as the "
+                                      "byte 2, not a bool (0 or 1)");
+  std::string out;
+  EXPECT_EQ(vs::test::runCli("info " + vs::test::quote(file), out), 2) << out;
+  EXPECT_TRUE(vs::test::contains(out, file + ": damaged VDB file: ")) << out;
+  EXPECT_TRUE(vs::test::contains(out, "grid 0 'b'")) << out;
+}
+
+// Every other bool OpenVDB copies from a file unchecked is read as a byte too: an internal node's tile value,
+// a root tile's active flag (any grid type) and bool metadata. Each file loads before one byte is changed.
+TEST(VdbLoad, EveryStoredBoolIsCheckedAsAByte) {
+  openvdb::initialize();
+  const fs::path dir = vs::test::scratchDir("vdb_stored_bools");
+
+  // Tiles of 8^3 voxels in an internal node, at table offsets 0, 3 and 7: written uncompressed, the node's
+  // values hold 1 0 0 1 0 0 0 1.
+  auto mask = openvdb::BoolGrid::create(false);
+  mask->setName("mask");
+  for (int z : {0, 24, 56}) mask->tree().addTile(1, openvdb::Coord(0, 0, z), true, true);
+  const fs::path maskFile = dir / "mask.vdb";
+  {
+    openvdb::io::File out(maskFile.string());
+    out.setCompression(openvdb::io::COMPRESS_NONE);
+    out.write({mask});
+  }
+  EXPECT_EQ(vs::loadVdb(maskFile.string()).brickmap.solidCount(), 3u * 512u);
+  const std::string maskBytes = readBytes(maskFile);
+  writeBytes(maskFile, patched(maskBytes, std::string("\1\0\0\1\0\0\0\1", 8), 3, '\2'));
+  expectDamagedBool(maskFile.string(), "mask",
+                   maskFile.string() + ": damaged VDB file: grid 0 'mask' has a tile value at (0, 0, 24) stored as "
+                                       "the byte 2, not a bool (0 or 1)");
+
+  // An inactive root tile of a fog grid: coordinates, value 0.5, active flag 0.
+  auto fog = openvdb::FloatGrid::create(0.0f);
+  fog->setName("density");
+  fog->tree().setValueOn(openvdb::Coord(1, 2, 3), 1.0f);
+  fog->tree().addTile(3, openvdb::Coord(8192, 0, 0), 0.5f, false);
+  const fs::path fogFile = dir / "fog.vdb";
+  openvdb::io::File(fogFile.string()).write({fog});
+  EXPECT_EQ(vs::loadVdb(fogFile.string()).brickmap.solidCount(), 1u);
+  const float half = 0.5f;
+  std::string tile = int32Bytes(8192) + int32Bytes(0) + int32Bytes(0) + std::string(4, '\0') + std::string(1, '\0');
+  std::memcpy(tile.data() + 12, &half, 4);
+  writeBytes(fogFile, patched(readBytes(fogFile), tile, 16, '\3'));
+  expectDamagedBool(fogFile.string(), "density",
+                   fogFile.string() + ": damaged VDB file: grid 0 'density' has a tile at (8192, 0, 0) whose active "
+                                      "flag is stored as the byte 3, not a bool (0 or 1)");
+
+  // Bool metadata: name, type name "bool", size 1, the byte.
+  auto meta = openvdb::BoolGrid::create(false);
+  meta->setName("flagged");
+  meta->tree().setValueOn(openvdb::Coord(0, 0, 0), true);
+  meta->insertMeta("is_flagged", openvdb::BoolMetadata(true));
+  const fs::path metaFile = dir / "meta.vdb";
+  openvdb::io::File(metaFile.string()).write({meta});
+  EXPECT_EQ(vs::loadVdb(metaFile.string()).brickmap.solidCount(), 1u);
+  const std::string record = "is_flagged" + int32Bytes(4) + "bool" + int32Bytes(1) + "\1";
+  writeBytes(metaFile, patched(readBytes(metaFile), record, record.size() - 1, '\xff'));
+  expectDamagedBool(metaFile.string(), "flagged", metaFile.string() + ": damaged VDB file: grid 0 'flagged' has the metadata 'is_flagged' stored as "
+                                       "the byte 255, not a bool (0 or 1)");
+}
+
+namespace {
+
+// The outcome of loading a file: its grid and solid count, or its error message.
+std::string outcomeOf(const std::string& file, const vs::LoadOptions& options = {}) {
+  try {
+    const vs::VoxelObject obj = vs::loadVdb(file, options);
+    return "loaded " + obj.gridName + " " + std::to_string(obj.brickmap.solidCount());
+  } catch (const vs::Error& e) {
+    return std::string(e.kind() == vs::ErrorKind::BadInput ? "bad input: " : "runtime: ") + e.what();
+  }
+}
+
+std::vector<pid_t> childrenOfThisThread() {
+  std::ifstream in("/proc/self/task/" + std::to_string(::gettid()) + "/children");
+  std::vector<pid_t> out;
+  for (pid_t pid; in >> pid;) out.push_back(pid);
+  return out;
+}
+
+}  // namespace
+
+// One long-lived checking process (as the fuzz target uses) gives every file the verdict and message a fork
+// per file gives, a file on which OpenVDB's reader crashes included; the next file gets a fresh process; one
+// killed between two files is replaced without blaming the next; turning it off ends and reaps it.
+TEST(VdbLoad, PersistentCheckingProcessGivesTheSameVerdicts) {
+  std::vector<std::string> files;
+  for (const fs::path& dir : {vs::test::sharedAssets() / "vdb", vs::test::sharedAssets() / "vdb" / "damaged",
+                              fs::path(VOXSHADOW_SOURCE_DIR) / "tests/fuzz/regressions/vdb",
+                              fs::path(VOXSHADOW_SOURCE_DIR) / "tests/fuzz/seeds/vdb"})
+    for (const auto& e : fs::directory_iterator(dir))
+      if (e.is_regular_file() && e.file_size() < 1000000) files.push_back(e.path().string());
+  std::sort(files.begin(), files.end());
+  const std::string crash =
+      (fs::path(VOXSHADOW_SOURCE_DIR) / "tests/fuzz/regressions/vdb/crash-blosc-uncompressed-length.vdb").string();
+  const std::string good = (vs::test::sharedAssets() / "vdb" / "oiio_fog_sphere.vdb").string();
+  // The crash twice more, between good files: each time the next check needs a new process.
+  files.insert(files.end(), {good, crash, good, crash, crash, good});
+  std::vector<std::string> forked;
+  for (const std::string& f : files) forked.push_back(outcomeOf(f));
+  ASSERT_TRUE(childrenOfThisThread().empty());
+
+  vs::setPersistentCheckingProcess(true);
+  int crashes = 0;
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    const std::string got = outcomeOf(files[i]);
+    EXPECT_EQ(got, forked[i]) << files[i];
+    if (files[i] == crash) {
+      ++crashes;
+      EXPECT_TRUE(vs::test::contains(got, crash + ": damaged VDB file: OpenVDB's reader failed on grid 0 "
+                                                   "'voxel_fog_density' (")) << got;
+    }
+  }
+  EXPECT_EQ(crashes, 4);
+  const std::vector<pid_t> children = childrenOfThisThread();
+  ASSERT_EQ(children.size(), 1u) << "one checking process, alive between files";
+  // Killed while idle: the next file is checked by a new process, not refused.
+  ASSERT_EQ(::kill(children[0], SIGKILL), 0);
+  for (int i = 0; i < 200 && fs::exists("/proc/" + std::to_string(children[0]) + "/status"); ++i) {
+    std::ifstream status("/proc/" + std::to_string(children[0]) + "/status");
+    std::string text((std::istreambuf_iterator<char>(status)), std::istreambuf_iterator<char>());
+    if (vs::test::contains(text, "State:\tZ")) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(outcomeOf(good), forked[files.size() - 1]);
+  const std::vector<pid_t> after = childrenOfThisThread();
+  ASSERT_EQ(after.size(), 1u);
+  EXPECT_NE(after[0], children[0]);
+  // Without the checking process at all the file is still read, in this process.
+  vs::LoadOptions trusted;
+  trusted.checkInChildProcess = false;
+  EXPECT_EQ(outcomeOf(good, trusted), forked[files.size() - 1]);
+
+  vs::setPersistentCheckingProcess(false);
+  EXPECT_TRUE(childrenOfThisThread().empty());
+  errno = 0;
+  EXPECT_EQ(::waitpid(-1, nullptr, WNOHANG), -1) << "a checking process was left unreaped";
+  EXPECT_EQ(errno, ECHILD);
+  // Back to a fork per file, which leaves no process behind.
+  EXPECT_EQ(outcomeOf(crash), forked[files.size() - 2]);
+  EXPECT_TRUE(childrenOfThisThread().empty());
+}
+
+// The voxel limit refuses a grid with more solid voxels than it allows, naming it, before extracting any;
+// a grid at the limit loads.
+TEST(VdbLoad, SolidVoxelLimitRefusesLargerGrids) {
+  openvdb::initialize();
+  auto mask = openvdb::BoolGrid::create(false);
+  mask->setName("block");
+  mask->tree().addTile(1, openvdb::Coord(0, 0, 0), true, true);  // 8^3 voxels
+  mask->tree().setValueOn(openvdb::Coord(100, 0, 0), true);
+  const fs::path file = vs::test::scratchDir("vdb_voxel_limit") / "block.vdb";
+  openvdb::io::File(file.string()).write({mask});
+  vs::LoadOptions options;
+  EXPECT_EQ(vs::loadVdb(file.string(), options).brickmap.solidCount(), 513u);
+  options.maxSolidVoxels = 513;
+  EXPECT_EQ(vs::loadVdb(file.string(), options).brickmap.solidCount(), 513u);
+  options.maxSolidVoxels = 512;
+  expectBadInput([&] { vs::loadVdb(file.string(), options); },
+                 {file.string() + ": grid 'block' has more than 512 solid voxels, more than the loader accepts"});
+  const auto infos = vs::inspectVdb(file.string(), options);
+  ASSERT_EQ(infos.size(), 1u);
+  EXPECT_TRUE(vs::test::contains(infos[0].error, "more than 512 solid voxels")) << infos[0].error;
+}
+
+// The brickmap's region table has one slot per 128^3 region of the bounds, 2^24 at most: a grid whose bounds
+// need more is refused by the loader before any voxel is extracted, also where each axis alone is within the
+// limit and the product of the three does not fit in 64 bits (2^21 + 1 regions each, from a fuzzed file).
+TEST(VdbLoad, BoundsBeyondTheRegionTableAreRefusedBeforeExtraction) {
+  openvdb::initialize();
+  const fs::path dir = vs::test::scratchDir("vdb_region_table");
+  auto check = [&](int far, const std::string& name) {
+    auto mask = openvdb::BoolGrid::create(false);
+    mask->setName(name);
+    mask->tree().setValueOn(openvdb::Coord(0, 0, 0), true);
+    mask->tree().setValueOn(openvdb::Coord(far, far, far), true);
+    const fs::path file = dir / (name + ".vdb");
+    openvdb::io::File(file.string()).write({mask});
+    expectBadInput([&] { vs::loadVdb(file.string()); },
+                   {file.string() + ": grid '" + name + "' has index bounds too large for a brickmap (its region "
+                                                        "table would need more than 16777216 slots)"});
+  };
+  check(256 * 128, "just_over");  // 257^3 slots
+  check(1 << 28, "overflowing");  // (2^21 + 1)^3 slots
+  // 256^3 slots fit: the grid loads.
+  auto mask = openvdb::BoolGrid::create(false);
+  mask->tree().setValueOn(openvdb::Coord(0, 0, 0), true);
+  mask->tree().setValueOn(openvdb::Coord(256 * 128 - 1, 256 * 128 - 1, 256 * 128 - 1), true);
+  const fs::path file = dir / "fits.vdb";
+  openvdb::io::File(file.string()).write({mask});
+  EXPECT_EQ(vs::loadVdb(file.string()).brickmap.solidCount(), 2u);
 }

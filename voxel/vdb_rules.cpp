@@ -2,6 +2,7 @@
 #include "voxel/vdb_rules.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cerrno>
 #include <cstring>
@@ -13,13 +14,18 @@
 #include <cstdio>
 #include <istream>
 #include <new>
+#include <stdexcept>
 #include <streambuf>
+#include <type_traits>
 
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -89,12 +95,23 @@ struct ReadProgress {
   char name[128] = {};     // its name, cut to fit
   int done = 0;            // 1: every grid was read; 2: the reader refused the file with an exception
   char refusal[8192] = {}; // done == 2: the error message, cut to fit
+  std::uint64_t taken = 0; // the persistent child: serial number of the last request it took
+  int retiring = 0;        // the persistent child: 1 when it ends after this answer
+};
+
+// A value OpenVDB copied from the file without checking it, invalid for its type. The message names the grid
+// and the value, not the file.
+class DamagedValue : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 // The error message for the exception being handled (called inside a catch block).
 std::string refusalOf(const std::string& path) {
   try {
     throw;
+  } catch (const DamagedValue& e) {
+    return path + ": damaged VDB file: " + e.what();
   } catch (const openvdb::Exception& e) {
     return path + ": not a readable VDB file (" + printable(e.what()) + ")";
   } catch (const std::bad_alloc&) {
@@ -106,6 +123,83 @@ std::string refusalOf(const std::string& path) {
   } catch (...) {
     return path + ": not a readable VDB file";
   }
+}
+
+// OpenVDB reads the bools of a tree (grid background, tile values, a root tile's active flag) and bool
+// metadata by copying bytes from the file into them, unchecked: a damaged file can leave a bool whose byte is
+// neither 0 nor 1, and loading such a bool is undefined behaviour (UBSan reports it; an optimised build may
+// take it for true and false at once). These read each such byte as a byte once the grid is read, and refuse
+// the grid if one is neither 0 nor 1, before voxshadow loads any of them. Refusing, rather than reading the
+// byte as true: no VDB writer stores another byte, so the file is damaged, and OpenVDB's own code (its
+// reader's copies, its tree operations) would go on loading the value.
+unsigned byteOf(const bool& b) {
+  unsigned char c;
+  std::memcpy(&c, &b, 1);
+  return c;
+}
+
+std::string coordText(const openvdb::Coord& c) {
+  return "(" + std::to_string(c.x()) + ", " + std::to_string(c.y()) + ", " + std::to_string(c.z()) + ")";
+}
+
+[[noreturn]] void refuseBool(const std::string& label, const std::string& what, unsigned byte) {
+  throw DamagedValue(label + " has " + what + " stored as the byte " + std::to_string(byte) +
+                     ", not a bool (0 or 1)");
+}
+
+// A root tile's active flag lives beside its value in a node of the root's table, which OpenVDB reaches only
+// by loading the flag (isValueOn); the root's value iterators hold the table iterator (protected).
+template <class RootT>
+class RootTileFlags : public RootT::ValueAllCIter {
+ public:
+  explicit RootTileFlags(const typename RootT::ValueAllCIter& it) : RootT::ValueAllCIter(it) {}
+  const bool& activeFlag() const { return this->mIter->second.tile.active; }
+};
+
+// The tile values of an internal node and of the internal nodes below it (the leaf nodes of bool trees hold
+// their values as bits). The node's table, not OpenVDB's value iterators: a bool tree's top internal node
+// alone has 32,768 entries, and the iterators cost more than the reading.
+template <class NodeT>
+void checkTileBytes(const NodeT& node, const std::string& label) {
+  if constexpr (NodeT::LEVEL > 0) {
+    const auto* table = node.getTable();
+    const auto& children = node.getChildMask();
+    for (openvdb::Index i = 0; i < NodeT::NUM_VALUES; ++i)
+      if (children.isOff(i))
+        if (unsigned b = byteOf(table[i].getValue()); b > 1)
+          refuseBool(label, "a tile value at " + coordText(node.offsetToGlobalCoord(i)), b);
+    for (auto child = node.cbeginChildOn(); child; ++child) checkTileBytes(*child, label);
+  }
+}
+
+template <class GridT>
+void checkStoredBools(const GridT& grid, const std::string& label) {
+  using TreeT = typename GridT::TreeType;
+  using RootT = typename TreeT::RootNodeType;
+  const TreeT& tree = grid.tree();
+  constexpr bool boolValues = std::is_same_v<typename TreeT::ValueType, bool>;
+  if constexpr (boolValues)
+    if (unsigned b = byteOf(tree.background()); b > 1) refuseBool(label, "a background value", b);
+  for (RootTileFlags<RootT> it(tree.root().cbeginValueAll()); it; it.next()) {
+    if (unsigned b = byteOf(it.activeFlag()); b > 1)
+      refuseBool(label, "a tile at " + coordText(it.getCoord()) + " whose active flag is", b);
+    if constexpr (boolValues)
+      if (unsigned b = byteOf(it.getValue()); b > 1) refuseBool(label, "a tile value at " + coordText(it.getCoord()), b);
+  }
+  if constexpr (boolValues)
+    for (auto child = tree.root().cbeginChildOn(); child; ++child) checkTileBytes(*child, label);
+  for (auto m = grid.beginMeta(); m != grid.endMeta(); ++m) {
+    if (m->second && m->second->typeName() == openvdb::BoolMetadata::staticTypeName()) {
+      const auto& meta = static_cast<const openvdb::BoolMetadata&>(*m->second);
+      if (unsigned b = byteOf(meta.value()); b > 1)
+        refuseBool(label, "the metadata '" + printable(m->first) + "'", b);
+    }
+  }
+}
+
+// Throws DamagedValue for a grid holding a bool that is neither 0 nor 1 (see byteOf).
+void checkStoredBools(const openvdb::GridBase& grid, const std::string& label) {
+  grid.apply<openvdb::GridTypes>([&](const auto& typed) { checkStoredBools(typed, label); });
 }
 
 // The reading io::Stream(is, delayLoad=false) does (OpenVDB 10, Stream.cc), step by step, so that the grid
@@ -144,6 +238,8 @@ class GridReader : public openvdb::io::Archive {
       if (grid) grid->setSaveFloatAsHalf(gd.saveFloatAsHalf());
       if (keep) keep->push_back(grid);
       Archive::readGrid(grid, gd, is);
+      if (grid) checkStoredBools(*grid, "grid " + std::to_string(i) + " '" +
+                                  printable(openvdb::io::GridDescriptor::nameAsString(gd.uniqueName())) + "'");
       descriptors.push_back(gd);
       grids.push_back(grid);
       named[gd.uniqueName()] = grid;
@@ -191,11 +287,12 @@ namespace vs {
 
 namespace {
 
-// The child process: parses every grid, then ends without returning into the caller (no unwinding into
-// the parent's frames, no atexit handlers, no flushing of the parent's buffered output).
-[[noreturn]] void checkInChild(const std::string& bytes, const std::string& path, ReadProgress* progress, pid_t parent) {
-  // Die with the parent; default actions for the signals the parent handles (its handlers remove the
-  // parent's temporaries), none blocked, so that an interrupt of the process group ends the child too.
+// Puts a freshly forked checking child in its state. Die with the parent; default actions for the signals
+// the parent handles (its handlers remove the parent's temporaries), none blocked, so that an interrupt of
+// the process group ends the child too. Quiet: OpenVDB's warnings come again from the parent's own reading,
+// and the C library's or a sanitizer's report of the reader's failure would only repeat the error the parent
+// gives.
+void prepareCheckingChild(pid_t parent) {
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);
   if (::getppid() != parent) ::_exit(3);
   for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGALRM})
@@ -203,8 +300,6 @@ namespace {
   sigset_t none;
   sigemptyset(&none);
   ::sigprocmask(SIG_SETMASK, &none, nullptr);
-  // Quiet: OpenVDB's warnings come again from the parent's own reading, and the C library's or a
-  // sanitizer's report of the reader's failure would only repeat the error the parent gives.
   int devnull = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
   if (devnull >= 0) {
     ::dup2(devnull, 1);
@@ -212,8 +307,11 @@ namespace {
   }
   if (__sanitizer_set_report_fd) __sanitizer_set_report_fd(reinterpret_cast<void*>(std::intptr_t(2)));
   if (__sanitizer_set_death_callback) __sanitizer_set_death_callback(nullptr);
-  // Never freed: the child ends without destroying any grid (see GridReader::read).
-  auto* keep = new openvdb::GridPtrVec;
+}
+
+// Parses the bytes in the child and records the verdict in `progress` (done = 1 or 2). Every grid is kept in
+// `keep`, never freed (see GridReader::read).
+void checkBytes(const std::string& bytes, const std::string& path, ReadProgress* progress, openvdb::GridPtrVec* keep) {
   try {
     (void)parseGrids(bytes, progress, keep);
     progress->done = 1;
@@ -227,28 +325,19 @@ namespace {
     }
     progress->done = 2;
   }
+}
+
+// The child process: parses every grid, then ends without returning into the caller (no unwinding into
+// the parent's frames, no atexit handlers, no flushing of the parent's buffered output).
+[[noreturn]] void checkInChild(const std::string& bytes, const std::string& path, ReadProgress* progress, pid_t parent) {
+  prepareCheckingChild(parent);
+  checkBytes(bytes, path, progress, new openvdb::GridPtrVec);
   ::_exit(0);
 }
 
-// Parses the bytes in a child process first; throws vs::Error(BadInput) naming the file and the grid being
-// read when the child dies (a crash inside OpenVDB on damaged data, or the kernel killing it for memory),
-// and with the child's message when OpenVDB refused the file with an exception there.
-void checkInChildProcess(const std::string& bytes, const std::string& path) {
-  void* shared = ::mmap(nullptr, sizeof(ReadProgress), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
-  if (shared == MAP_FAILED) throwRuntime(path + ": cannot map memory to check the file (" + std::strerror(errno) + ")");
-  ReadProgress* progress = new (shared) ReadProgress;
-  struct Unmap {
-    void* p;
-    ~Unmap() { ::munmap(p, sizeof(ReadProgress)); }
-  } unmap{shared};
-  const pid_t parent = ::getpid();
-  const pid_t child = ::fork();
-  if (child < 0) throwRuntime(path + ": cannot start a process to check the file (" + std::strerror(errno) + ")");
-  if (child == 0) checkInChild(bytes, path, progress, parent);
-  int status = 0;
-  pid_t waited;
-  do waited = ::waitpid(child, &status, 0);
-  while (waited < 0 && errno == EINTR);
+// The verdict of a checking child on one file, once the child has ended (`waited` and `status` from waitpid)
+// or, for the persistent child, died while reading it. Returns when the child read the file to its end.
+void verdictOf(const std::string& path, ReadProgress* progress, pid_t waited, int status) {
   // waitpid fails (ECHILD) where SIGCHLD is ignored or another waiter reaped the child: the shared flag,
   // set by the child only after its reading ended normally, decides then.
   const bool ended = waited < 0 || (WIFEXITED(status) && WEXITSTATUS(status) == 0);
@@ -257,6 +346,7 @@ void checkInChildProcess(const std::string& bytes, const std::string& path) {
     progress->refusal[sizeof progress->refusal - 1] = 0;
     throwBadInput(progress->refusal);
   }
+  progress->name[sizeof progress->name - 1] = 0;
   std::string where = progress->grid < 0 ? std::string("the file header and metadata")
                                           : "grid " + std::to_string(progress->grid) + " '" + printable(progress->name) + "'";
   std::string how;
@@ -266,6 +356,226 @@ void checkInChildProcess(const std::string& bytes, const std::string& path) {
   else how = "it exited with status " + std::to_string(WEXITSTATUS(status));
   throwBadInput(path + ": damaged VDB file: OpenVDB's reader failed on " + where + " (" + how +
                 " in a checking process); the file was not loaded");
+}
+
+pid_t waitForChild(pid_t child, int* status) {
+  pid_t waited;
+  do waited = ::waitpid(child, status, 0);
+  while (waited < 0 && errno == EINTR);
+  return waited;
+}
+
+ReadProgress* mapProgress(const std::string& path) {
+  void* shared = ::mmap(nullptr, sizeof(ReadProgress), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+  if (shared == MAP_FAILED) throwRuntime(path + ": cannot map memory to check the file (" + std::strerror(errno) + ")");
+  return new (shared) ReadProgress;
+}
+
+// Parses the bytes in a child process first; throws vs::Error(BadInput) naming the file and the grid being
+// read when the child dies (a crash inside OpenVDB on damaged data, or the kernel killing it for memory),
+// and with the child's message when OpenVDB refused the file with an exception there.
+void checkInChildProcess(const std::string& bytes, const std::string& path) {
+  ReadProgress* progress = mapProgress(path);
+  struct Unmap {
+    void* p;
+    ~Unmap() { ::munmap(p, sizeof(ReadProgress)); }
+  } unmap{progress};
+  const pid_t parent = ::getpid();
+  const pid_t child = ::fork();
+  if (child < 0) throwRuntime(path + ": cannot start a process to check the file (" + std::strerror(errno) + ")");
+  if (child == 0) checkInChild(bytes, path, progress, parent);
+  int status = 0;
+  const pid_t waited = waitForChild(child, &status);
+  verdictOf(path, progress, waited, status);
+}
+
+// --- The persistent checking child (setPersistentCheckingProcess) ---
+//
+// One child serves check after check over a socket pair: the parent sends a request (header, path, bytes),
+// the child parses the bytes as checkInChild does, records the verdict in the shared ReadProgress and
+// answers with one byte. A child that dies while reading a file gives the error checkInChildProcess gives;
+// the next check starts a fresh child. The child never frees a grid (see GridReader::read), so it retires,
+// after answering, once it has served kChecksPerChild files or grown by kGrowthPerChild bytes.
+
+constexpr std::uint64_t kChecksPerChild = 2048;
+constexpr std::uint64_t kGrowthPerChild = std::uint64_t(512) << 20;
+
+struct CheckRequest {
+  std::uint64_t serial;
+  std::uint64_t pathSize;
+  std::uint64_t byteCount;
+};
+
+bool readFully(int fd, void* data, std::size_t size) {
+  char* p = static_cast<char*>(data);
+  while (size > 0) {
+    const ssize_t n = ::read(fd, p, size);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    p += n;
+    size -= std::size_t(n);
+  }
+  return true;
+}
+
+// MSG_NOSIGNAL: a child that died leaves EPIPE, not a SIGPIPE that would end the parent.
+bool sendFully(int fd, const void* data, std::size_t size) {
+  const char* p = static_cast<const char*>(data);
+  while (size > 0) {
+    const ssize_t n = ::send(fd, p, size, MSG_NOSIGNAL);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    p += n;
+    size -= std::size_t(n);
+  }
+  return true;
+}
+
+// The child's peak resident size: it frees little, so the peak is about what it holds.
+std::uint64_t residentBytes() {
+  struct rusage usage {};
+  if (::getrusage(RUSAGE_SELF, &usage) != 0) return 0;
+  return std::uint64_t(usage.ru_maxrss) * 1024;
+}
+
+[[noreturn]] void serveChecks(int fd, ReadProgress* progress, pid_t parent) {
+  // Above the standard streams, which prepareCheckingChild points at /dev/null (a parent that closed them
+  // can get the socket there).
+  if (fd < 3) fd = ::fcntl(fd, F_DUPFD, 3);
+  if (fd < 0) ::_exit(4);
+  prepareCheckingChild(parent);
+  // Nothing else the parent had open stays open for the child's whole life (a pipe's write end would keep
+  // its reader from seeing the end).
+  ::syscall(SYS_close_range, 3u, unsigned(fd) - 1, 0u);
+  ::syscall(SYS_close_range, unsigned(fd) + 1, ~0u, 0u);
+  const std::uint64_t residentAtStart = residentBytes();
+  auto* keep = new openvdb::GridPtrVec;
+  std::string path, bytes;  // kept from one request to the next, so that their memory is reused
+  for (std::uint64_t served = 1;; ++served) {
+    CheckRequest request{};
+    try {
+      if (!readFully(fd, &request, sizeof request)) ::_exit(0);  // the parent closed its end, or ended
+      path.resize(request.pathSize);
+      bytes.resize(request.byteCount);
+    } catch (...) {
+      ::_exit(4);  // no memory for the request: the parent starts another child and asks it again
+    }
+    if (!readFully(fd, path.data(), path.size()) || !readFully(fd, bytes.data(), bytes.size())) ::_exit(0);
+    progress->taken = request.serial;
+    checkBytes(bytes, path, progress, keep);
+    const bool retire = served >= kChecksPerChild || residentBytes() > residentAtStart + kGrowthPerChild;
+    progress->retiring = retire ? 1 : 0;
+    const char answer = 1;
+    if (!sendFully(fd, &answer, 1) || retire) ::_exit(0);
+  }
+}
+
+class PersistentChecker {
+ public:
+  ~PersistentChecker() {
+    // At exit: the child sees the end of its socket and ends; a check still running on another thread keeps
+    // it (the process is ending anyway).
+    std::unique_lock<std::mutex> lock(mutex_, std::try_to_lock);
+    if (lock.owns_lock() && owner_ == ::getpid()) stop();
+  }
+
+  void check(const std::string& bytes, const std::string& path) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (owner_ != ::getpid()) {
+      // A fork of the process that started the child: the socket and the shared record are that process's.
+      if (fd_ >= 0) ::close(fd_);
+      fd_ = -1;
+      child_ = -1;
+      progress_ = nullptr;
+      owner_ = ::getpid();
+    }
+    if (!progress_) progress_ = mapProgress(path);
+    // A child can have died between two checks (killed, or its parent thread ended): one that had not yet
+    // taken this file is replaced once, without blaming the file.
+    for (int attempt = 0;; ++attempt) {
+      if (child_ < 0) start(path);
+      const std::uint64_t serial = ++serial_;
+      progress_->grid = -1;
+      progress_->name[0] = 0;
+      progress_->done = 0;
+      progress_->refusal[0] = 0;
+      progress_->retiring = 0;
+      const CheckRequest request{serial, path.size(), bytes.size()};
+      char answer = 0;
+      const bool answered = sendFully(fd_, &request, sizeof request) && sendFully(fd_, path.data(), path.size()) &&
+                            sendFully(fd_, bytes.data(), bytes.size()) && readFully(fd_, &answer, 1);
+      if (answered && progress_->taken == serial && progress_->done != 0) {
+        if (progress_->retiring) stop();
+        verdictOf(path, progress_, -1, 0);  // done 1 returns, done 2 throws the child's refusal
+        return;
+      }
+      int status = 0;
+      const pid_t waited = stop(&status);
+      if (progress_->taken == serial) {  // it died reading this file
+        verdictOf(path, progress_, waited, status);
+        return;
+      }
+      if (attempt > 0)
+        throwRuntime(path + ": the process checking VDB files ended before it read the file");
+    }
+  }
+
+  // Ends the child (when this process started it) and waits for it.
+  void shutdown() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (owner_ == ::getpid()) stop();
+  }
+
+ private:
+  void stop() {
+    int status = 0;
+    (void)stop(&status);
+  }
+
+  void start(const std::string& path) {
+    int fds[2];
+    if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, fds) != 0)
+      throwRuntime(path + ": cannot start a process to check the file (" + std::strerror(errno) + ")");
+    const pid_t parent = ::getpid();
+    const pid_t child = ::fork();
+    if (child < 0) {
+      const int error = errno;
+      ::close(fds[0]);
+      ::close(fds[1]);
+      throwRuntime(path + ": cannot start a process to check the file (" + std::strerror(error) + ")");
+    }
+    if (child == 0) {
+      ::close(fds[0]);
+      serveChecks(fds[1], progress_, parent);
+    }
+    ::close(fds[1]);
+    fd_ = fds[0];
+    child_ = child;
+  }
+
+  // Closes the socket (a child waiting for a request ends) and reaps the child; waitpid's result.
+  pid_t stop(int* status) {
+    if (child_ < 0) return -1;
+    ::close(fd_);
+    const pid_t waited = waitForChild(child_, status);
+    fd_ = -1;
+    child_ = -1;
+    return waited;
+  }
+
+  std::mutex mutex_;
+  ReadProgress* progress_ = nullptr;  // shared with every child, never unmapped
+  pid_t child_ = -1;
+  int fd_ = -1;
+  std::uint64_t serial_ = 0;
+  pid_t owner_ = ::getpid();
+};
+
+std::atomic<bool> persistentChecks{false};
+
+PersistentChecker& persistentChecker() {
+  static PersistentChecker checker;
+  return checker;
 }
 
 std::string readWholeFile(const std::string& path) {
@@ -294,6 +604,11 @@ std::string readWholeFile(const std::string& path) {
 
 }  // namespace
 
+void setPersistentCheckingProcess(bool on) {
+  persistentChecks.store(on);
+  if (!on) persistentChecker().shutdown();
+}
+
 openvdb::GridPtrVec readVdbGrids(const std::string& path, bool checkInChild) {
   ensureOpenVdbInitialized();
   std::error_code ec;
@@ -307,7 +622,8 @@ openvdb::GridPtrVec readVdbGrids(const std::string& path, bool checkInChild) {
   } catch (const std::bad_alloc&) {
     throwRuntime(path + ": too large to read into memory");
   }
-  if (checkInChild) checkInChildProcess(bytes, path);
+  if (checkInChild && persistentChecks.load()) persistentChecker().check(bytes, path);
+  else if (checkInChild) checkInChildProcess(bytes, path);
   try {
     return parseGrids(bytes);
   } catch (...) {
@@ -346,7 +662,7 @@ void visitValues(const GridT& grid, bool allValues, Pred&& pred, Fn&& fn) {
 // Counts accepted voxels (tiles by volume) and their bounds, so that nothing is allocated for a grid whose
 // solid set is absurdly large.
 template <class GridT, class Pred>
-void guardSize(const GridT& grid, bool allValues, Pred&& pred, const std::string& file) {
+void guardSize(const GridT& grid, bool allValues, Pred&& pred, std::uint64_t limit, const std::string& file) {
   std::uint64_t count = 0;
   openvdb::CoordBBox bounds;
   auto run = [&](auto it) {
@@ -355,8 +671,8 @@ void guardSize(const GridT& grid, bool allValues, Pred&& pred, const std::string
       openvdb::CoordBBox box = it.isVoxelValue() ? openvdb::CoordBBox(it.getCoord(), it.getCoord()) : it.getBoundingBox();
       count += box.volume();
       bounds.expand(box);
-      if (count > kMaxLoadVoxels) {
-        throwBadInput(file + ": " + gridLabel(grid) + " has more than " + std::to_string(kMaxLoadVoxels) +
+      if (count > limit) {
+        throwBadInput(file + ": " + gridLabel(grid) + " has more than " + std::to_string(limit) +
                       " solid voxels, more than the loader accepts");
       }
     }
@@ -364,17 +680,25 @@ void guardSize(const GridT& grid, bool allValues, Pred&& pred, const std::string
   if (allValues) run(grid.tree().cbeginValueAll());
   else run(grid.tree().cbeginValueOn());
   if (count == 0) return;
+  // The brickmap's region table has a slot for every 128^3 region of the bounds, at most kMaxRegionSlots in
+  // all. A grid needing more is refused here, before its voxels are extracted, and without overflowing the
+  // product (each factor is checked first, so no product of two exceeds 2^48): three axes of a few million
+  // regions each once overflowed the brickmap's own count.
+  const std::int64_t maxSlots = std::int64_t(Brickmap::kMaxRegionSlots);
+  std::int64_t slots = 1;
   for (int a = 0; a < 3; ++a) {
-    std::int64_t regions = (std::int64_t(bounds.max()[a]) >> 7) - (std::int64_t(bounds.min()[a]) >> 7) + 1;
-    if (regions > std::int64_t(Brickmap::kMaxRegionSlots)) {
-      throwBadInput(file + ": " + gridLabel(grid) + " has index bounds too large for a brickmap");
+    const std::int64_t regions = (std::int64_t(bounds.max()[a]) >> 7) - (std::int64_t(bounds.min()[a]) >> 7) + 1;
+    if (regions > maxSlots || (slots *= regions) > maxSlots) {
+      throwBadInput(file + ": " + gridLabel(grid) + " has index bounds too large for a brickmap (its region table " +
+                    "would need more than " + std::to_string(maxSlots) + " slots)");
     }
   }
 }
 
 template <class GridT, class Pred, class MatFn>
-std::vector<SolidVoxel> collect(const GridT& grid, bool allValues, Pred pred, MatFn mat, const std::string& file) {
-  guardSize(grid, allValues, pred, file);
+std::vector<SolidVoxel> collect(const GridT& grid, bool allValues, Pred pred, MatFn mat, std::uint64_t limit,
+                                const std::string& file) {
+  guardSize(grid, allValues, pred, limit, file);
   std::vector<SolidVoxel> out;
   visitValues(grid, allValues, pred, [&](const openvdb::Coord& c, const auto& value) {
     out.push_back({glm::ivec3(c.x(), c.y(), c.z()), mat(value)});
@@ -397,9 +721,9 @@ struct ColourHash {
 // Palette of at most 255 colours: exact when there are that few distinct colours, else median cut over the
 // distinct colours weighted by their voxel counts. Assigns every voxel its entry.
 template <class GridT, class ToColour>
-SolidExtraction colourGrid(const GridT& grid, ToColour toColour, const std::string& file) {
+SolidExtraction colourGrid(const GridT& grid, ToColour toColour, std::uint64_t limit, const std::string& file) {
   auto pred = [](const auto&) { return true; };
-  guardSize(grid, false, pred, file);
+  guardSize(grid, false, pred, limit, file);
   std::unordered_map<ColourKey, std::uint32_t, ColourHash> ids;  // colour -> distinct index
   std::vector<ColourKey> distinct;
   std::vector<std::uint64_t> weight;
@@ -558,36 +882,37 @@ SolidExtraction extractSolid(const openvdb::GridBase& g, const LoadOptions& opti
   SolidExtraction out;
   auto one = [](const auto&) { return std::uint8_t(1); };
   const float thr = options.densityThreshold;
+  const std::uint64_t limit = options.maxSolidVoxels;
   auto scalar = [&](const auto& grid) {
-    if (isLevelSet(g)) return collect(grid, true, [](auto v) { return v < 0; }, one, file);
-    return collect(grid, false, [thr](auto v) { return double(v) > double(thr); }, one, file);
+    if (isLevelSet(g)) return collect(grid, true, [](auto v) { return v < 0; }, one, limit, file);
+    return collect(grid, false, [thr](auto v) { return double(v) > double(thr); }, one, limit, file);
   };
   if (const auto* fg = dynamic_cast<const openvdb::FloatGrid*>(&g)) {
     out.voxels = scalar(*fg);
   } else if (const auto* dg = dynamic_cast<const openvdb::DoubleGrid*>(&g)) {
     out.voxels = scalar(*dg);
   } else if (const auto* bg = dynamic_cast<const openvdb::BoolGrid*>(&g)) {
-    out.voxels = collect(*bg, false, [](bool) { return true; }, one, file);
+    out.voxels = collect(*bg, false, [](bool) { return true; }, one, limit, file);
   } else if (const auto* mg = dynamic_cast<const openvdb::MaskGrid*>(&g)) {
-    out.voxels = collect(*mg, false, [](bool) { return true; }, one, file);
+    out.voxels = collect(*mg, false, [](bool) { return true; }, one, limit, file);
   } else if (const auto* ig = dynamic_cast<const openvdb::Int32Grid*>(&g)) {
     out.voxels = collect(*ig, false, [](std::int32_t v) { return v != 0; },
-                         [](std::int32_t v) { return integerMaterial(v); }, file);
+                         [](std::int32_t v) { return integerMaterial(v); }, limit, file);
     out.palette = integerPalette(options.color);
     applyPaletteMetadata(g, file, out.palette);
     return out;
   } else if (const auto* lg = dynamic_cast<const openvdb::Int64Grid*>(&g)) {
     out.voxels = collect(*lg, false, [](std::int64_t v) { return v != 0; },
-                         [](std::int64_t v) { return integerMaterial(v); }, file);
+                         [](std::int64_t v) { return integerMaterial(v); }, limit, file);
     out.palette = integerPalette(options.color);
     return out;
   } else if (const auto* vs3 = dynamic_cast<const openvdb::Vec3SGrid*>(&g)) {
-    return colourGrid(*vs3, [](const openvdb::Vec3f& v) { return glm::vec3(v.x(), v.y(), v.z()); }, file);
+    return colourGrid(*vs3, [](const openvdb::Vec3f& v) { return glm::vec3(v.x(), v.y(), v.z()); }, limit, file);
   } else if (const auto* vd3 = dynamic_cast<const openvdb::Vec3DGrid*>(&g)) {
-    return colourGrid(*vd3, [](const openvdb::Vec3d& v) { return glm::vec3(float(v.x()), float(v.y()), float(v.z())); }, file);
+    return colourGrid(*vd3, [](const openvdb::Vec3d& v) { return glm::vec3(float(v.x()), float(v.y()), float(v.z())); }, limit, file);
   } else if (const auto* vi3 = dynamic_cast<const openvdb::Vec3IGrid*>(&g)) {
     // Integer colours are 8-bit channels.
-    return colourGrid(*vi3, [](const openvdb::Vec3i& v) { return glm::vec3(v.x(), v.y(), v.z()) / 255.0f; }, file);
+    return colourGrid(*vi3, [](const openvdb::Vec3i& v) { return glm::vec3(v.x(), v.y(), v.z()) / 255.0f; }, limit, file);
   } else {
     throwBadInput(file + ": " + gridLabel(g) + " of type " + g.valueType() + " has no solid rule");
   }

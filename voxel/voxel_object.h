@@ -29,6 +29,12 @@ struct LoadOptions {
   // reading; the brickmap building that follows is not repeated), and the child's memory while it runs.
   // Turn it off only for files that are trusted (written by this process or a known tool).
   bool checkInChildProcess = true;
+  // Most solid voxels (tiles counted by their volume) the chosen grid may expand to. A grid with more is
+  // refused, naming the file, the grid and this limit, after its tree is counted and before any voxel is
+  // extracted. The default bounds what a hostile or absurd file can make the loader allocate (about 16 bytes
+  // a voxel while extracting, then the brickmap); a caller that only needs small assets, such as the fuzz
+  // target, lowers it to refuse large grids early.
+  std::uint64_t maxSolidVoxels = std::uint64_t(1) << 26;
 };
 
 struct VoxelObject {
