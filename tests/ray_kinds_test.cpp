@@ -1,6 +1,7 @@
 // The three ray kinds (shadow texels, and the closest-hit and any-hit rays of compute/shared/trace_rays.h) through
-// every backend: the CPU reference, the CPU fast path (eight AVX2 lanes where the processor has them), the
-// portable CPU tiles and the Vulkan shader give identical results bit for bit on a seeded battery of more than a
+// every backend: the CPU reference (the box-table walk, one ray at a time), the CPU fast path in every lane width
+// the processor runs (scalar, AVX2, AVX-512), the portable CPU tiles (the hierarchy walk) and the Vulkan shader
+// give identical results bit for bit on a seeded battery of more than a
 // million rays of each kind; any-hit agrees with
 // "a closest hit exists" on every ray; and the records agree with the independent double-precision reference.
 #include <gtest/gtest.h>
@@ -216,21 +217,33 @@ TEST_F(RayKinds, EveryBackendGivesTheSameRecordsOnAMillionRays) {
   scenes.push_back(instancedScene(glm::dvec3(0.0)));
   scenes.push_back(instancedScene(glm::dvec3(1.0e4, -3.0e3, 2.0e4)));
   scenes.push_back(singleObjectScene(glm::dvec3(-1.0e5, 2.0e3, 1.0e5)));
-  const bool lanes = laneTracerSupported(scenes[0].data);
-  if (!lanes) std::printf("note: this processor has no AVX2; the fast path runs the portable tiles only\n");
+  // Every lane width this processor runs; the others are named as not compared.
+  std::vector<CpuTracePath> lanePaths = {CpuTracePath::LanesScalar};
+  for (auto [path, width] : {std::pair{CpuTracePath::LanesAvx2, LaneWidth::Avx2},
+                             std::pair{CpuTracePath::LanesAvx512, LaneWidth::Avx512}}) {
+    if (laneWidthSupported(width)) lanePaths.push_back(path);
+    else std::printf("NOT COMPARED: this processor does not run the %s lane tracer\n", laneWidthName(width));
+  }
   std::size_t total = 0, hits = 0, faces = 0, starts = 0, texels = 0, texelHits = 0;
   for (std::size_t s = 0; s < scenes.size(); ++s) {
     const TestScene& scene = scenes[s];
     SCOPED_TRACE("scene " + std::to_string(s) + " (" + scene.name + ")");
     std::vector<gpu::TraceRay> rays = rayBattery(scene, kRaysPerScene, std::uint32_t(100 + s));
+    // The reference walks the box table, as the shader does; the portable tiles walk the hierarchy.
     auto reference = makeCpuTracer({CpuTracePath::Reference, 2});
-    auto fast = makeCpuTracer({CpuTracePath::Interleaved, 2});
     auto tiles = makeCpuTracer({CpuTracePath::PortableTiles, 2});
-    for (Tracer* t : {reference.get(), fast.get(), tiles.get(), vulkan_}) t->setScene(scene.data);
+    std::vector<std::unique_ptr<Tracer>> laneTracers;
+    for (CpuTracePath path : lanePaths) laneTracers.push_back(makeCpuTracer({path, 2}));
+    std::vector<Tracer*> others = {tiles.get(), vulkan_};
+    for (auto& t : laneTracers) others.push_back(t.get());
+    reference->setScene(scene.data);
+    for (Tracer* t : others) t->setScene(scene.data);
+    ASSERT_TRUE(reference->cpu()->hasBoxTable());
     Results ref = traceBoth(*reference, rays);
     EXPECT_EQ(anyHitDisagreements(ref), 0u);
-    for (Tracer* t : {fast.get(), tiles.get(), vulkan_}) {
-      SCOPED_TRACE(t->backend() + " on " + t->deviceName());
+    for (std::size_t k = 0; k < others.size(); ++k) {
+      Tracer* t = others[k];
+      SCOPED_TRACE(t->backend() + " on " + t->deviceName() + " (tracer " + std::to_string(k) + ")");
       Results r = traceBoth(*t, rays);
       EXPECT_EQ(std::memcmp(r.hits.data(), ref.hits.data(), r.hits.size() * sizeof(gpu::RayHit)), 0)
           << "first difference from the reference: " << firstDifference(r.hits, ref.hits);
@@ -254,8 +267,9 @@ TEST_F(RayKinds, EveryBackendGivesTheSameRecordsOnAMillionRays) {
     for (std::size_t v = 0; v < views.size(); v += 2) views[v].info.w = gpu::VS_DEPTH_POINT_VOXEL_CENTER;
     std::vector<ShadowLayer> refLayers;
     reference->traceShadow(views, refLayers);
-    for (Tracer* t : {fast.get(), tiles.get(), vulkan_}) {
-      SCOPED_TRACE(t->backend() + " shadow texels");
+    for (std::size_t k = 0; k < others.size(); ++k) {
+      Tracer* t = others[k];
+      SCOPED_TRACE(t->backend() + " shadow texels (tracer " + std::to_string(k) + ")");
       std::vector<ShadowLayer> layers;
       t->traceShadow(views, layers);
       for (std::size_t v = 0; v < views.size(); ++v)

@@ -1,4 +1,5 @@
-// The CPU fast path (CpuTracePath::Interleaved: eight-lane AVX2 walks where available) equals the reference
+// The CPU fast path (CpuTracePath::Interleaved: the box-table walk in 16 AVX-512 or 8 AVX2 lanes where the
+// processor has them, else one scalar lane) equals the reference
 // per-ray traversal bit for bit on the benchmark scene, from many directions, both depth points, partial
 // rectangles, and rays aimed along voxel faces, edges and corners.
 #include <gtest/gtest.h>
@@ -7,10 +8,12 @@
 #include <cstring>
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "compute/box_table.h"
 #include "compute/cpu/cpu_tracer.h"
 #include "compute/cpu/lane_tracer.h"
 #include "support/hostile_views.h"
 #include "support/test_scenes.h"
+#include "voxel/error.h"
 
 namespace vs {
 namespace {
@@ -60,7 +63,7 @@ std::size_t differingTexels(const ShadowLayer& a, const ShadowLayer& b) {
 
 TEST(TraceCpuFast, City512MatchesReferenceBitForBit) {
   auto scene = test::city512Scene();
-  if (!laneTracerSupported(scene.data)) GTEST_LOG_(INFO) << "no AVX2: the fast path is the round-robin walk";
+  std::printf("the fast path runs %s lanes\n", laneWidthName(widestLaneWidth()));
   auto views = cityViews(scene.data.worldBounds);
   std::vector<ShadowLayer> reference, fast;
   traceCpu(scene.data, views, reference, CpuTracePath::Reference, 2);
@@ -126,35 +129,32 @@ TEST(TraceCpuFast, InstancedScenesMatchReferenceBitForBit) {
 namespace vs {
 namespace {
 
-// Both levels of the lane tracer's tables (brick codes, and sector codes with the lane brick cache used for
-// scenes whose brick table would be too large) equal the reference bit for bit.
-TEST(TraceCpuFast, LaneTracerBothTableLevelsMatchReference) {
+// Every lane width equals the hierarchy walk bit for bit (and so the reference's box walk, which the other
+// tests compare); a width this processor does not run is named as not compared.
+TEST(TraceCpuFast, EveryLaneWidthMatchesTheHierarchyWalk) {
   auto scene = test::city512Scene();
-  if (!laneTracerSupported(scene.data)) GTEST_SKIP() << "no AVX2 on this processor";
   std::vector<gpu::TraceView> views = {test::directionalView(scene.data.worldBounds, {-0.4f, -1.0f, -0.3f}, 128),
                                        test::directionalView(scene.data.worldBounds, {1, -1, 1}, 128),
                                        test::distanceView({256.0f, 300.0f, 256.0f}, {0.1f, -1, 0.2f}, 1000.0f, 128)};
   views[1].info.w = gpu::VS_DEPTH_POINT_VOXEL_CENTER;
-  std::vector<ShadowLayer> reference;
-  traceCpu(scene.data, views, reference, CpuTracePath::Reference, 1);
-  for (std::size_t maxBrickCodes : {kMaxLaneBrickCodes, std::size_t(0)}) {
-    LaneTables tables;
-    ASSERT_TRUE(buildLaneTables(scene.data, tables, maxBrickCodes));
-    EXPECT_EQ(tables.brickCodes.empty(), maxBrickCodes == 0);
-    std::vector<ShadowLayer> lanes(views.size());
-    std::vector<TexelTile> tiles;
-    for (std::size_t i = 0; i < views.size(); ++i) {
-      lanes[i].width = views[i].info.x;
-      lanes[i].height = views[i].info.y;
-      lanes[i].texels.assign(std::size_t(lanes[i].width) * lanes[i].height, 0.0f);
-      for (int y = 0; y < views[i].info.y; y += 4)
-        for (int x = 0; x < views[i].info.x; x += 16) tiles.push_back({int(i), x, y, x + 16, y + 4});
+  std::vector<ShadowLayer> hierarchy;
+  traceCpu(scene.data, views, hierarchy, CpuTracePath::PortableTiles, 1);
+  std::size_t compared = 0;
+  for (auto [path, width] : {std::pair{CpuTracePath::LanesScalar, LaneWidth::Scalar},
+                             std::pair{CpuTracePath::LanesAvx2, LaneWidth::Avx2},
+                             std::pair{CpuTracePath::LanesAvx512, LaneWidth::Avx512}}) {
+    if (!laneWidthSupported(width)) {
+      std::printf("NOT COMPARED: this processor does not run the %s lane tracer\n", laneWidthName(width));
+      EXPECT_THROW(traceCpu(scene.data, views, hierarchy, path, 1), Error);
+      continue;
     }
-    gpu::SceneArrays arrays(scene.data);
-    traceTilesLanes(arrays, tables, views, tiles, lanes);
+    std::vector<ShadowLayer> lanes;
+    traceCpu(scene.data, views, lanes, path, 1);
     for (std::size_t i = 0; i < views.size(); ++i)
-      EXPECT_EQ(differingTexels(reference[i], lanes[i]), 0u) << "view " << i << " max brick codes " << maxBrickCodes;
+      EXPECT_EQ(differingTexels(hierarchy[i], lanes[i]), 0u) << laneWidthName(width) << " view " << i;
+    ++compared;
   }
+  EXPECT_GE(compared, 1u);
 }
 
 }  // namespace
@@ -197,6 +197,11 @@ TEST(TraceCpuCanonicalOrder, HierarchicalWalkEqualsVoxelWalk) {
   scenes.push_back(test::city512Scene());
   for (const test::TestScene& scene : scenes) {
     gpu::SceneArrays arrays(scene.data);
+    // The same walks over the box table (vsObjectWalkBoxes), which vsTraceObject takes when one is bound.
+    const std::vector<std::int32_t> boxTable = buildBoxTable(scene.data);
+    ASSERT_FALSE(boxTable.empty());
+    gpu::SceneArrays boxArrays(scene.data);
+    boxArrays.boxTable = boxTable.data();
     const Brickmap& bm = *scene.brickmaps[0];
     std::vector<gpu::TraceView> views = {test::directionalView(scene.data.worldBounds, {-0.4f, -1.0f, -0.3f}, 96),
                                          gridView(glm::vec3(48, 8, 48), {1, -1, 0}, 96.0f, 96),
@@ -217,23 +222,28 @@ TEST(TraceCpuCanonicalOrder, HierarchicalWalkEqualsVoxelWalk) {
           const float tMin = arrays.vsLocalT(0.0f, tBase);
           bool hit = arrays.vsTraceObject(0, lo, ld, tMin, tMax, t, v);
           bool hitv = voxelWalk(bm, arrays, lo, ld, tMin, tMax, tv, vv);
+          float tb = 0;
+          glm::ivec3 vb(0);
+          bool hitb = boxArrays.vsTraceObject(0, lo, ld, tMin, tMax, tb, vb);
           ASSERT_EQ(hit, hitv) << scene.name << " texel " << x << "," << y;
+          ASSERT_EQ(hitb, hitv) << scene.name << " texel " << x << "," << y << " (box table)";
           if (!hit) continue;
           ++hits;
           ASSERT_EQ(v, vv) << scene.name << " texel " << x << "," << y;
           ASSERT_EQ(std::memcmp(&t, &tv, sizeof t), 0) << scene.name << " texel " << x << "," << y;
+          ASSERT_EQ(vb, vv) << scene.name << " texel " << x << "," << y << " (box table)";
+          ASSERT_EQ(std::memcmp(&tb, &tv, sizeof t), 0) << scene.name << " texel " << x << "," << y << " (box table)";
         }
     EXPECT_GT(hits, 1000u) << scene.name;
   }
 }
 
-// Every empty brick's box (encodeEmptyBoxes) holds no solid voxel, and each of its faces below the extent cap
+// Every empty brick's box (compute/box_table.cpp) holds no solid voxel, and each of its faces below the extent cap
 // is blocked: the slab of bricks beyond it holds one.
 TEST(TraceCpuFast, EmptyBrickBoxesAreEmptyAndBlocked) {
   auto scene = test::floorScene();
-  LaneTables tables;
-  ASSERT_TRUE(buildLaneTables(scene.data, tables));
-  ASSERT_FALSE(tables.brickCodes.empty());
+  const std::vector<std::int32_t> table = buildBoxTable(scene.data);
+  ASSERT_FALSE(table.empty());
   const Brickmap& bm = *scene.brickmaps[0];
   const gpu::ObjectRecord& obj = scene.data.objects[0];
   const glm::ivec3 dims = 16 * glm::ivec3(obj.regionDims), origin = 16 * glm::ivec3(obj.regionOrigin);
@@ -262,9 +272,9 @@ TEST(TraceCpuFast, EmptyBrickBoxesAreEmptyAndBlocked) {
   for (int z = 0; z < dims.z; ++z)
     for (int y = 0; y < dims.y; ++y)
       for (int x = 0; x < dims.x; ++x) {
-        std::int32_t code = tables.brickCodes[std::size_t(tables.objectBrickBase[0]) + (std::size_t(z) * dims.y + y) * dims.x + x];
+        std::int32_t code = table[std::size_t(table[0]) + (std::size_t(z) * dims.y + y) * dims.x + x];
         bool isSolid = solid[(std::size_t(z) * dims.y + y) * dims.x + x];
-        ASSERT_EQ(isSolid, code >= 0 || code == kLaneFullBrick) << x << "," << y << "," << z;
+        ASSERT_EQ(isSolid, code >= 0 || code == gpu::VS_BOX_FULL) << x << "," << y << "," << z;
         if (isSolid) continue;
         int box = -1 - code, log2 = box >> 24;
         glm::ivec3 b(x, y, z);
@@ -281,7 +291,7 @@ TEST(TraceCpuFast, EmptyBrickBoxesAreEmptyAndBlocked) {
         glm::ivec3 lo = b - glm::ivec3(ext[0], ext[2], ext[4]), hi = b + glm::ivec3(ext[1], ext[3], ext[5]);
         ASSERT_FALSE(anySolid(lo, hi)) << x << "," << y << "," << z;
         for (int f = 0; f < 6; ++f) {
-          if (ext[f] == kLaneMaxBoxExtent) continue;
+          if (ext[f] == kMaxBoxExtent) continue;
           glm::ivec3 slo = lo, shi = hi;
           int a = f / 2;
           if (f % 2 == 0) slo[a] = shi[a] = lo[a] - 1;

@@ -23,9 +23,17 @@ struct Exit {
 
 Exit boxExit(glm::vec3 o, glm::vec3 d, glm::ivec3 v, float tEnter, glm::ivec3 boxMin, glm::ivec3 boxEnd,
              float t1 = 100.0f, glm::ivec3 vmin = glm::ivec3(-64), glm::ivec3 vmax = glm::ivec3(64)) {
-  glm::vec3 invD(noArrays.vsInverseAxis(d.x), noArrays.vsInverseAxis(d.y), noArrays.vsInverseAxis(d.z));
+  gpu::SceneArrays::BoxWalk w{};
+  w.ox = o.x, w.oy = o.y, w.oz = o.z;
+  w.dx = d.x, w.dy = d.y, w.dz = d.z;
+  w.ix = noArrays.vsInverseAxis(d.x), w.iy = noArrays.vsInverseAxis(d.y), w.iz = noArrays.vsInverseAxis(d.z);
+  w.t1 = t1;
+  w.minX = vmin.x, w.minY = vmin.y, w.minZ = vmin.z, w.maxX = vmax.x, w.maxY = vmax.y, w.maxZ = vmax.z;
+  w.vx = v.x, w.vy = v.y, w.vz = v.z;
+  w.tEnter = tEnter;
   Exit e{};
-  e.stays = noArrays.vsBoxExit(o, d, invD, v, tEnter, t1, vmin, vmax, boxMin, boxEnd, e.next, e.t);
+  e.stays = noArrays.vsBoxExit(w, boxMin.x, boxMin.y, boxMin.z, boxEnd.x, boxEnd.y, boxEnd.z, e.next.x, e.next.y,
+                               e.next.z, e.t);
   return e;
 }
 

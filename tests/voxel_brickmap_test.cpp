@@ -114,6 +114,19 @@ TEST(Brickmap, HugeBoundsAreRefusedWithTheSize) {
   }
 }
 
+// Three extents of 2^24 regions multiply past int64: the count saturates and the refusal names the extents.
+TEST(Brickmap, BoundsWhoseSlotCountOverflowsAreRefused) {
+  const int far = (1 << 30) - 1;
+  std::vector<vs::SolidVoxel> voxels{{glm::ivec3(-far), 1}, {glm::ivec3(far), 1}};
+  try {
+    vs::Brickmap::build(voxels);
+    FAIL() << "expected vs::Error";
+  } catch (const vs::Error& e) {
+    EXPECT_EQ(e.kind(), vs::ErrorKind::BadInput);
+    EXPECT_NE(std::string(e.what()).find("16777216x16777216x16777216 slots"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Brickmap, FullBricksOwnNoLineAndPayloadKinds) {
   vs::Brickmap bm;
   bm.fillBox({glm::ivec3(0), glm::ivec3(16, 8, 8)}, 4);

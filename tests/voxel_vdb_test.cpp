@@ -763,4 +763,15 @@ TEST(VdbLoad, BoundsBeyondTheRegionTableAreRefusedBeforeExtraction) {
   const fs::path file = dir / "fits.vdb";
   openvdb::io::File(file.string()).write({mask});
   EXPECT_EQ(vs::loadVdb(file.string()).brickmap.solidCount(), 2u);
+  // A caller's lower limit is honoured with the same message; one above the brickmap's own means that one.
+  vs::LoadOptions lowered;
+  lowered.maxRegionSlots = 256 * 256 * 256 - 1;
+  expectBadInput([&] { vs::loadVdb(file.string(), lowered); },
+                 {file.string() + ": ", "has index bounds too large for a brickmap (its region table would need "
+                                         "more than 16777215 slots)"});
+  vs::LoadOptions raised;
+  raised.maxRegionSlots = std::int64_t(1) << 40;
+  EXPECT_EQ(vs::loadVdb(file.string(), raised).brickmap.solidCount(), 2u);
+  const fs::path over = dir / "just_over.vdb";
+  expectBadInput([&] { vs::loadVdb(over.string(), raised); }, {"would need more than 16777216 slots"});
 }

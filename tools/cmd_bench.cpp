@@ -13,6 +13,7 @@
 
 #include <glm/glm.hpp>
 
+#include "compute/cpu/lane_tracer.h"
 #include "compute/tracer.h"
 #include "tools/commands.h"
 #include "tools/resources.h"
@@ -237,15 +238,17 @@ void runBench(const BenchOptions& opt) {
   std::size_t hits = std::count_if(layers[0].texels.begin(), layers[0].texels.end(), [](float t) { return t < 1.0f; });
   std::printf("rays: %dx%d orthographic along (-0.4,-1,-0.3), %zu texels hit, %d threads, median of %d\n",
               opt.resolution, opt.resolution, hits, opt.threads, opt.reps);
-  // The fast path's lookup tables are built once per scene, like the peer's grid and intersector: outside
-  // the timed traces, and reported apart.
+  // The box table is built once per scene, like the peer's grid and intersector: outside the timed traces,
+  // and reported apart.
   std::unique_ptr<Tracer> fast = makeCpuTracer({CpuTracePath::Interleaved, opt.threads});
   fast->setScene(scene);
   double cpuSeconds = timeMedian(opt.reps, [&] { fast->traceShadow(views, layers); });
   std::printf("%-28s %9.3f s  %8.2f Mrays/s\n", "cpu reference (per ray)", referenceSeconds,
               rays / referenceSeconds / 1e6);
-  std::printf("%-28s %9.3f s  %8.2f Mrays/s  (lookup tables built once in %.1f ms)\n", "cpu interleaved tiles",
-              cpuSeconds, rays / cpuSeconds / 1e6, fast->cpu()->tableBuildSeconds() * 1e3);
+  std::printf("%-28s %9.3f s  %8.2f Mrays/s  (%s; box table built once in %.1f ms)\n", "cpu interleaved tiles",
+              cpuSeconds, rays / cpuSeconds / 1e6,
+              fast->cpu()->hasBoxTable() ? laneWidthName(widestLaneWidth()) : "no box table: portable tiles",
+              fast->cpu()->tableBuildSeconds() * 1e3);
   double vulkanSeconds = 0.0;
   VulkanBench vb;
   if (opt.vulkan) {

@@ -69,14 +69,25 @@ void checkCoord(glm::ivec3 v, const char* what) {
   }
 }
 
-std::int64_t slotCount(glm::ivec3 dims) { return std::int64_t(dims.x) * dims.y * dims.z; }
+// Saturates instead of overflowing: three extents of up to 2^28 regions each multiply past int64, and a
+// count above the limit only has to say so.
+std::int64_t slotCount(glm::ivec3 dims) {
+  constexpr std::int64_t kSaturated = std::int64_t(Brickmap::kMaxRegionSlots) + 1;
+  std::int64_t slots = 1;
+  for (int a = 0; a < 3; ++a) {
+    if (dims[a] <= 0) return 0;
+    if (slots > kSaturated / dims[a]) return kSaturated;
+    slots *= dims[a];
+  }
+  return slots;
+}
 
 void checkSlots(glm::ivec3 dims, glm::ivec3 vmin, glm::ivec3 vmax) {
   std::int64_t slots = slotCount(dims);
   if (slots > std::int64_t(Brickmap::kMaxRegionSlots)) {
     throwBadInput("brickmap: voxel bounds " + boxText(vmin, vmax) + " need a region table of " +
-                  std::to_string(dims.x) + "x" + std::to_string(dims.y) + "x" + std::to_string(dims.z) + " = " +
-                  std::to_string(slots) + " slots, more than the limit of " +
+                  std::to_string(dims.x) + "x" + std::to_string(dims.y) + "x" + std::to_string(dims.z) +
+                  " slots, more than the limit of " +
                   std::to_string(Brickmap::kMaxRegionSlots));
   }
 }

@@ -8,6 +8,7 @@
 #define VOXSHADOW_PORTABLE_H
 
 #ifdef VS_GLSL
+#define VS_IN(T) T
 #define VS_INOUT(T) inout T
 #define VS_OUT(T) out T
 #define VS_PRECISE precise
@@ -21,6 +22,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/bitfield.hpp>
 #include <glm/integer.hpp>
+#define VS_IN(T) const T&
 #define VS_INOUT(T) T&
 #define VS_OUT(T) T&
 #define VS_PRECISE

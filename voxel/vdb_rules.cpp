@@ -659,10 +659,17 @@ void visitValues(const GridT& grid, bool allValues, Pred&& pred, Fn&& fn) {
   else run(grid.tree().cbeginValueOn());
 }
 
+// LoadOptions' size limits, the region-slot limit clamped to what a brickmap can hold.
+struct GridLimits {
+  std::uint64_t solidVoxels;
+  std::int64_t regionSlots;
+};
+
 // Counts accepted voxels (tiles by volume) and their bounds, so that nothing is allocated for a grid whose
 // solid set is absurdly large.
 template <class GridT, class Pred>
-void guardSize(const GridT& grid, bool allValues, Pred&& pred, std::uint64_t limit, const std::string& file) {
+void guardSize(const GridT& grid, bool allValues, Pred&& pred, const GridLimits& limits, const std::string& file) {
+  const std::uint64_t limit = limits.solidVoxels;
   std::uint64_t count = 0;
   openvdb::CoordBBox bounds;
   auto run = [&](auto it) {
@@ -684,7 +691,7 @@ void guardSize(const GridT& grid, bool allValues, Pred&& pred, std::uint64_t lim
   // all. A grid needing more is refused here, before its voxels are extracted, and without overflowing the
   // product (each factor is checked first, so no product of two exceeds 2^48): three axes of a few million
   // regions each once overflowed the brickmap's own count.
-  const std::int64_t maxSlots = std::int64_t(Brickmap::kMaxRegionSlots);
+  const std::int64_t maxSlots = limits.regionSlots;
   std::int64_t slots = 1;
   for (int a = 0; a < 3; ++a) {
     const std::int64_t regions = (std::int64_t(bounds.max()[a]) >> 7) - (std::int64_t(bounds.min()[a]) >> 7) + 1;
@@ -696,7 +703,7 @@ void guardSize(const GridT& grid, bool allValues, Pred&& pred, std::uint64_t lim
 }
 
 template <class GridT, class Pred, class MatFn>
-std::vector<SolidVoxel> collect(const GridT& grid, bool allValues, Pred pred, MatFn mat, std::uint64_t limit,
+std::vector<SolidVoxel> collect(const GridT& grid, bool allValues, Pred pred, MatFn mat, const GridLimits& limit,
                                 const std::string& file) {
   guardSize(grid, allValues, pred, limit, file);
   std::vector<SolidVoxel> out;
@@ -721,7 +728,7 @@ struct ColourHash {
 // Palette of at most 255 colours: exact when there are that few distinct colours, else median cut over the
 // distinct colours weighted by their voxel counts. Assigns every voxel its entry.
 template <class GridT, class ToColour>
-SolidExtraction colourGrid(const GridT& grid, ToColour toColour, std::uint64_t limit, const std::string& file) {
+SolidExtraction colourGrid(const GridT& grid, ToColour toColour, const GridLimits& limit, const std::string& file) {
   auto pred = [](const auto&) { return true; };
   guardSize(grid, false, pred, limit, file);
   std::unordered_map<ColourKey, std::uint32_t, ColourHash> ids;  // colour -> distinct index
@@ -882,7 +889,8 @@ SolidExtraction extractSolid(const openvdb::GridBase& g, const LoadOptions& opti
   SolidExtraction out;
   auto one = [](const auto&) { return std::uint8_t(1); };
   const float thr = options.densityThreshold;
-  const std::uint64_t limit = options.maxSolidVoxels;
+  const GridLimits limit{options.maxSolidVoxels,
+                         std::min(options.maxRegionSlots, std::int64_t(Brickmap::kMaxRegionSlots))};
   auto scalar = [&](const auto& grid) {
     if (isLevelSet(g)) return collect(grid, true, [](auto v) { return v < 0; }, one, limit, file);
     return collect(grid, false, [thr](auto v) { return double(v) > double(thr); }, one, limit, file);

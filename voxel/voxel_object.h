@@ -35,6 +35,11 @@ struct LoadOptions {
   // a voxel while extracting, then the brickmap); a caller that only needs small assets, such as the fuzz
   // target, lowers it to refuse large grids early.
   std::uint64_t maxSolidVoxels = std::uint64_t(1) << 26;
+  // Most region-table slots (one per 128^3 region of the grid's index bounds) the brickmap may need; values
+  // above the brickmap's own limit (Brickmap::kMaxRegionSlots, 2^24) mean that limit. A grid needing more is
+  // refused before extraction. The fuzz target lowers it: a mutation that moves a leaf far away otherwise
+  // allocates and clears a 64 MiB table for every such input.
+  std::int64_t maxRegionSlots = std::int64_t(1) << 24;
 };
 
 struct VoxelObject {

@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "compute/box_table.h"
 #include "compute/cpu/lane_tracer.h"
 #include "compute/cpu/scene_arrays.h"
 #include "compute/cpu/ray_sources.h"
@@ -34,7 +35,7 @@ void checkView(const gpu::TraceView& view, std::size_t index) {
 
 }  // namespace
 
-CpuTracer::CpuTracer(const SceneData& scene) : scene_(&scene), tables_(std::make_unique<LaneTables>()) {}
+CpuTracer::CpuTracer(const SceneData& scene) : scene_(&scene) {}
 
 CpuTracer::~CpuTracer() = default;
 
@@ -46,15 +47,59 @@ void traceCpu(const SceneData& scene, std::span<const gpu::TraceView> views, std
 }
 
 void CpuTracer::ensureTables() {
-  // Built on the first fast-path trace after a voxel change, inside the caller's thread count.
+  // Built on the first trace after a voxel change, inside the caller's thread count.
   if (tablesBuilt_) return;
   auto start = std::chrono::steady_clock::now();
-  lanes_ = laneTracerSupported(*scene_) && buildLaneTables(*scene_, *tables_);
+  boxTable_ = buildBoxTable(*scene_);
   tablesBuilt_ = true;
   tableSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+bool CpuTracer::hasBoxTable() {
+  ensureTables();
+  return !boxTable_.empty();
+}
+
 namespace {
+
+// How a path walks: the lanes it runs (none: no lanes), and whether its walks read the box table.
+struct PathPlan {
+  bool lanes = false;
+  LaneWidth width = LaneWidth::Scalar;
+  bool boxTable = false;
+};
+
+PathPlan planFor(CpuTracePath path, bool hasBoxTable) {
+  PathPlan plan;
+  auto lanesOf = [&](LaneWidth width) {
+    if (!hasBoxTable) throwBadInput("the lane tracer needs a box table, and this scene has none (too large)");
+    if (!laneWidthSupported(width))
+      throwBadInput(std::string("this processor does not run the ") + laneWidthName(width) + " lane tracer");
+    plan.lanes = true;
+    plan.width = width;
+    plan.boxTable = true;
+  };
+  switch (path) {
+    case CpuTracePath::Reference:
+      plan.boxTable = hasBoxTable;
+      break;
+    case CpuTracePath::Interleaved:
+      if (hasBoxTable) lanesOf(widestLaneWidth());
+      break;
+    case CpuTracePath::PortableTiles:
+      break;
+    case CpuTracePath::LanesScalar:
+      lanesOf(LaneWidth::Scalar);
+      break;
+    case CpuTracePath::LanesAvx2:
+      lanesOf(LaneWidth::Avx2);
+      break;
+    case CpuTracePath::LanesAvx512:
+      lanesOf(LaneWidth::Avx512);
+      break;
+  }
+  return plan;
+}
 
 template <class Run>
 void inArena(int threads, Run&& run) {
@@ -89,13 +134,15 @@ void CpuTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowL
 
   gpu::SceneArrays arrays(scene);
   inArena(threads, [&] {
-    if (path == CpuTracePath::Interleaved) ensureTables();
-    const bool lanes = path == CpuTracePath::Interleaved && lanes_;
+    ensureTables();
+    const PathPlan plan = planFor(path, !boxTable_.empty());
+    if (plan.boxTable) arrays.boxTable = boxTable_.data();
+    const bool lanes = plan.lanes;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, jobs.size()), [&](const tbb::blocked_range<std::size_t>& r) {
       // One stream over the whole range, so that lanes freed by short rays pick up the next tile's texels.
       std::span<const TexelTile> range = std::span<const TexelTile>(jobs).subspan(r.begin(), r.size());
       if (lanes) {
-        traceTilesLanes(arrays, *tables_, views, range, layers);
+        traceTilesLanes(plan.width, arrays, views, range, layers);
         return;
       }
       if (path != CpuTracePath::Reference) {
@@ -120,10 +167,10 @@ constexpr std::size_t kRayChunk = 1024;
 // Every ray of one kind on the chosen path, in chunks over the threads: lanes (`laneTrace(first, count)`),
 // portable tiles (`source`), or one at a time through the reference (`reference(i)`).
 template <class Source, class Lanes, class Reference>
-void traceRayKind(gpu::SceneArrays& arrays, std::size_t count, CpuTracePath path, bool lanes, Source source,
-                  Lanes&& laneTrace, Reference&& reference) {
+void traceRayKind(gpu::SceneArrays& arrays, std::size_t count, CpuTracePath path, const PathPlan& plan,
+                  Source source, Lanes&& laneTrace, Reference&& reference) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, kRayChunk), [&](const auto& r) {
-    if (lanes) {
+    if (plan.lanes) {
       laneTrace(r.begin(), r.size());
     } else if (path != CpuTracePath::Reference) {
       Source chunk = source;
@@ -149,11 +196,13 @@ void CpuTracer::traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu:
   source.rays = rays;
   source.hits = hits.data();
   inArena(threads, [&] {
-    if (path == CpuTracePath::Interleaved) ensureTables();
+    ensureTables();
+    const PathPlan plan = planFor(path, !boxTable_.empty());
+    if (plan.boxTable) arrays.boxTable = boxTable_.data();
     traceRayKind(
-        arrays, rays.size(), path, path == CpuTracePath::Interleaved && lanes_, source,
+        arrays, rays.size(), path, plan, source,
         [&](std::size_t first, std::size_t n) {
-          traceClosestLanes(arrays, *tables_, rays.subspan(first, n), hits.subspan(first, n));
+          traceClosestLanes(plan.width, arrays, rays.subspan(first, n), hits.subspan(first, n));
         },
         [&](std::size_t i) { hits[i] = arrays.vsClosestHit(arrays.vsTraceRayToWorld(rays[i])); });
   });
@@ -167,11 +216,13 @@ void CpuTracer::traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uin
   source.rays = rays;
   source.occluded = occluded.data();
   inArena(threads, [&] {
-    if (path == CpuTracePath::Interleaved) ensureTables();
+    ensureTables();
+    const PathPlan plan = planFor(path, !boxTable_.empty());
+    if (plan.boxTable) arrays.boxTable = boxTable_.data();
     traceRayKind(
-        arrays, rays.size(), path, path == CpuTracePath::Interleaved && lanes_, source,
+        arrays, rays.size(), path, plan, source,
         [&](std::size_t first, std::size_t n) {
-          traceAnyLanes(arrays, *tables_, rays.subspan(first, n), occluded.subspan(first, n));
+          traceAnyLanes(plan.width, arrays, rays.subspan(first, n), occluded.subspan(first, n));
         },
         [&](std::size_t i) { occluded[i] = arrays.vsAnyHit(arrays.vsTraceRayToWorld(rays[i])) ? 1u : 0u; });
   });

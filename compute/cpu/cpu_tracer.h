@@ -18,20 +18,22 @@ struct ShadowLayer {
 };
 
 enum class CpuTracePath {
-  Reference,    // the portable per-ray traversal, exactly what the shader runs
-  // Batches of rays walked in lockstep, equal to Reference ray for ray: eight rays per AVX2 step
-  // (compute/cpu/lane_tracer.h) where the processor has AVX2, else round-robin (compute/cpu/tile_tracer.h).
+  // The portable per-ray traversal, exactly what the shader runs: the walk over the scene's box table
+  // (compute/box_table.h) where the scene has one, else the brickmap hierarchy.
+  Reference,
+  // The fast path (compute/cpu/lane_tracer.h): the box-table walk of the widest SIMD lanes this processor
+  // runs (AVX-512, AVX2, else one scalar lane), equal to Reference ray for ray; the portable tiles where the
+  // scene has no box table.
   Interleaved,
-  // The round-robin tiles whatever the processor: what Interleaved runs where AVX2 is missing.
+  // Round-robin tiles over the brickmap hierarchy walk (compute/cpu/tile_tracer.h), whatever the processor:
+  // the walk that does not read the box table, kept as a check on it.
   PortableTiles,
+  // The fast path with the lanes named (vs::Error(BadInput) where the processor or the scene cannot run it).
+  LanesScalar,
+  LanesAvx2,
+  LanesAvx512,
 };
 
-struct LaneTables;
-
-// The CPU backend bound to one scene: shadow texels, closest-hit and any-hit rays. The fast path's lookup tables (dense per-object codes of every sector
-// and brick, and the empty boxes around empty bricks; compute/cpu/lane_tracer.h) are derived from the voxel
-// arrays once and kept between traces, so a frame in which no voxel changed rebuilds nothing; moving
-// instances changes no table.
 class CpuTracer {
  public:
   // Precondition: `scene` outlives the tracer.
@@ -58,16 +60,17 @@ class CpuTracer {
   void traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded,
                 CpuTracePath path = CpuTracePath::Interleaved, int threads = 0);
 
-  // Seconds the last table build took (0 before the first fast-path trace).
+  // Seconds the last table build took (0 before the first trace).
   double tableBuildSeconds() const { return tableSeconds_; }
+  // Whether the scene has a box table (built on the first trace); without one every path walks the hierarchy.
+  bool hasBoxTable();
 
  private:
   void ensureTables();
 
   const SceneData* scene_;
-  std::unique_ptr<LaneTables> tables_;
+  std::vector<std::int32_t> boxTable_;
   bool tablesBuilt_ = false;
-  bool lanes_ = false;
   double tableSeconds_ = 0.0;
 };
 

@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "compute/scene_data.h"
+#include "compute/shared/lanes.h"
 
 namespace vs::gpu {
 
@@ -24,6 +25,8 @@ struct SceneArrays {
   const uint* instanceIndices = nullptr;
   const uint* nodeEscapes = nullptr;
   uint nodeCount = 0;
+  // The box table of the scene (compute/box_table.h), or null: object walks then read the brickmap hierarchy.
+  const int* boxTable = nullptr;
 
   // No arrays: for callers of the pieces that read only what they are given (vsWorldRay) or the members they
   // set themselves.
@@ -42,7 +45,11 @@ struct SceneArrays {
         nodeEscapes(scene.bvh.nodeEscapes().data()),
         nodeCount(static_cast<uint>(scene.bvh.nodes().size())) {}
 
+#define VS_READ_BOX_CODE(i) boxTable[i]
+#define VS_BOX_TABLE (boxTable != nullptr)
 #include "compute/shared/traverse.h"
+#undef VS_BOX_TABLE
+#undef VS_READ_BOX_CODE
 };
 
 }  // namespace vs::gpu

@@ -20,6 +20,7 @@
 #include "compute/shared/trace_rays.h"
 #include "compute/shared/trace_view.h"
 #include "compute/shared/trace_interface.h"
+#include "compute/shared/lanes.h"
 
 layout(local_size_x = VS_TRACE_GROUP_WIDTH, local_size_y = VS_TRACE_GROUP_HEIGHT, local_size_z = 1) in;
 

@@ -156,85 +156,24 @@ int vsWalkCellLog2(VS_INOUT(ObjectWalk) w) {
   return ((word >> (voxelBit & 31u)) & 1u) != 0u ? -1 : 0;
 }
 
-// Whether a ray along one axis (origin o, inverse direction invD) has crossed the plane `coord` at parameter
-// t; a plane at exactly t counts as crossed when `tieCrossed` (its axis comes before the exit axis in the
-// canonical order, or at the start of a walk).
-// The per-axis helpers take scalars: indexing a vector by a loop variable makes some shader compilers
-// (llvmpipe) keep the whole walk state in per-lane scratch memory.
-bool vsPlaneCrossed(float o, float invD, int coord, float t, bool tieCrossed) {
-  VS_PRECISE float tp = (float(coord) - o) * invD;
-  return tp < t || (tp == t && tieCrossed);
-}
+// The box table's entry `index` where mask is set (compute/shared/lane_walk.h); index 0 is read elsewhere.
+LInt vsReadBoxCodeLanes(LBool mask, LInt index) { return VS_READ_BOX_CODE(mask ? index : 0); }
 
-// The coordinate along one axis (d != 0) of the canonical walk's voxel at parameter t, given an estimate c
-// from the point o + d*t that lies in [lo, hi] and is off by at most one voxel. Precondition: the voxel's
-// coordinate lies in [lo, hi].
-int vsSettleCoord(float o, float d, float invD, int c, int lo, int hi, float t, bool tieCrossed) {
-  // Straight-line code (no branch any SIMD lane could take alone): the two planes around c decide.
-  bool up = d > 0.0f;
-  bool lowCrossed = vsPlaneCrossed(o, invD, c, t, tieCrossed);
-  bool highCrossed = vsPlaneCrossed(o, invD, c + 1, t, tieCrossed);
-  bool back = up ? c > lo && !lowCrossed : c < hi && !highCrossed;  // c is past the voxel
-  bool ahead = up ? c < hi && highCrossed : c > lo && lowCrossed;   // c falls short of it
-  int step = up ? 1 : -1;
-  return back ? c - step : (ahead ? c + step : c);
-}
+#include "compute/shared/lane_walk.h"
 
-// Whether floor(x), x = o + d*t along one axis, could disagree with the plane comparisons of vsPlaneCrossed: only
-// when x lies within a hair of an integer plane. The rounding errors of x and of a plane's t amount to less than
-// 2^-21 of `scale` = 1 + |o| + |d*t| in position; the band is 32 times that, so outside it floor(x) is the
-// canonical coordinate and the settle can be skipped.
-bool vsNearPlane(float x, float scale) {
-  return abs(x - floor(x + 0.5f)) <= scale * (1.0f / 65536.0f);
-}
-
-// 1 / d, or 0 where the ray runs parallel to the axis (d == 0): the walk's inverse direction.
-float vsInverseAxis(float d) { return d == 0.0f ? 0.0f : 1.0f / d; }
-
-// One axis of a slab test against [lo, hi]: narrows [t0, t1] to where the ray lies between the two planes and
-// gives 1/d (0 where d is 0). A ray parallel to the planes is kept when lo <= o and o < hi (o <= hi when
-// `hiExclusive` is false).
-bool vsClipAxis(float o, float d, float lo, float hi, bool hiExclusive, VS_INOUT(float) t0, VS_INOUT(float) t1,
-                VS_INOUT(float) invD) {
-  bool parallel = d == 0.0f;
-  invD = vsInverseAxis(d);
-  VS_PRECISE float tLo = (lo - o) * invD;
-  VS_PRECISE float tHi = (hi - o) * invD;
-  t0 = parallel ? t0 : max(t0, min(tLo, tHi));
-  t1 = parallel ? t1 : min(t1, max(tLo, tHi));
-  return !parallel || !(o < lo || (hiExclusive ? o >= hi : o > hi));
-}
-
-// Clips o + t*d, t in [tMin, tMax], to the object's voxel bounds and places the walk on its first voxel.
-// Returns false when the ray misses the bounds (or the object is empty).
+// Clips o + t*d, t in [tMin, tMax], to the object's voxel bounds and places the walk on its first voxel
+// (vsBoxWalkBegin). Returns false when the ray misses the bounds (or the object is empty).
 bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax, VS_INOUT(ObjectWalk) w) {
   w.obj = VS_READ_OBJECT(objectIndex);
-  ivec3 vmin = ivec3(w.obj.voxelMin);
-  ivec3 vmax = ivec3(w.obj.voxelMax);
-  if (vmax.x <= vmin.x || vmax.y <= vmin.y || vmax.z <= vmin.z) return false;
-
-  vec3 invD = vec3(0.0f);
-  float t0 = tMin;
-  float t1 = tMax;
-  // All three axes, then one test: no branch per axis for SIMD lanes to diverge on.
-  bool inX = vsClipAxis(o.x, d.x, float(vmin.x), float(vmax.x), true, t0, t1, invD.x);
-  bool inY = vsClipAxis(o.y, d.y, float(vmin.y), float(vmax.y), true, t0, t1, invD.y);
-  bool inZ = vsClipAxis(o.z, d.z, float(vmin.z), float(vmax.z), true, t0, t1, invD.z);
-  if (!(inX && inY && inZ) || t0 > t1) return false;
-
-  VS_PRECISE vec3 entry = o + d * t0;
+  BoxWalk b;
+  if (!vsBoxWalkBegin(w.obj, o, d, tMin, tMax, b)) return false;
   w.o = o;
   w.d = d;
-  w.invD = invD;
-  w.v = ivec3(clamp(floor(entry), vec3(vmin), vec3(vmax - ivec3(1))));
-  // Every plane at t0 counts as crossed: the walk starts on the voxel the ray runs into.
-  int sx = vsSettleCoord(o.x, d.x, invD.x, w.v.x, vmin.x, vmax.x - 1, t0, true);
-  int sy = vsSettleCoord(o.y, d.y, invD.y, w.v.y, vmin.y, vmax.y - 1, t0, true);
-  int sz = vsSettleCoord(o.z, d.z, invD.z, w.v.z, vmin.z, vmax.z - 1, t0, true);
-  w.v = ivec3(d.x != 0.0f ? sx : w.v.x, d.y != 0.0f ? sy : w.v.y, d.z != 0.0f ? sz : w.v.z);
-  w.tEnter = t0;
-  w.t1 = t1;
-  w.stepsLeft = (vmax.x - vmin.x) + (vmax.y - vmin.y) + (vmax.z - vmin.z) + 3;
+  w.invD = vec3(b.ix, b.iy, b.iz);
+  w.v = ivec3(b.vx, b.vy, b.vz);
+  w.tEnter = b.tEnter;
+  w.t1 = b.t1;
+  w.stepsLeft = b.stepsLeft;
   w.sectorCoord = ivec3(VS_NO_CELL);
   w.sectorLog2 = 0;
   w.brickMask = uvec2(0u);
@@ -248,73 +187,46 @@ bool vsObjectWalkBegin(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax,
   return true;
 }
 
-// The t at which a ray along one axis leaves [boxMin, boxEnd) through the face it runs toward (d != 0).
-float vsAxisExit(float o, float d, float invD, int boxMin, int boxEnd) {
-  int bound = d > 0.0f ? boxEnd : boxMin;
-  VS_PRECISE float ta = (float(bound) - o) * invD;
-  return ta;
-}
-
-// The coordinate along one axis (`axis`, not the exit axis `exitAxis`) of the voxel after the box, left at tExit:
-// the canonical coordinate at tExit, between the current voxel v and the box's far face (the ray never moves
-// back). floor(o + d*tExit) is within one voxel of it, and vsSettleCoord settles it. A shader settles every
-// time: running rays as SIMD lanes, it pays for every branch any lane takes, and the settle is cheaper than
-// deciding whether it is needed; C++ settles only near a plane (vsNearPlane). Both give the same coordinate.
-int vsAxisNext(float o, float d, float invD, int v, int boxMin, int boxEnd, float tExit, int axis, int exitAxis) {
-  VS_PRECISE float p = o + d * tExit;
-  bool up = d > 0.0f;
-  int from = up ? v : boxMin;
-  int to = up ? boxEnd - 1 : v;
-  int c = clamp(int(clamp(floor(p), float(boxMin), float(boxEnd - 1))), from, to);
-#ifndef VS_GLSL
-  // One ray at a time, skipping the settle where floor is provably canonical is the cheaper way.
-  if (d == 0.0f) return v;
-  if (!vsNearPlane(p, 1.0f + abs(o) + abs(d * tExit))) return c;
-#endif
-  int settled = vsSettleCoord(o, d, invD, c, from, to, tExit, axis > exitAxis);
-  return d == 0.0f ? v : settled;
-}
-
-// The voxel after the empty box [boxMin, boxEnd) (voxel coordinates, end exclusive) that holds voxel v, for
-// the ray o + t*d (1/d = invD, 0 where d is 0) which entered v at tEnter: `next` and the t at which the ray
-// enters it, `tNext`. Returns false when the ray leaves the object's voxels [vmin, vmax) or its span (t1)
-// first. Any empty box around v leads to the same voxels. Straight-line code: a shader running rays as SIMD
-// lanes pays for every branch any lane takes.
-bool vsBoxExit(vec3 o, vec3 d, vec3 invD, ivec3 v, float tEnter, float t1, ivec3 vmin, ivec3 vmax, ivec3 boxMin,
-               ivec3 boxEnd, VS_OUT(ivec3) next, VS_OUT(float) tNext) {
-  // The nearest face, the highest axis on ties (canonical order); an axis the ray runs parallel to has none.
-  float tx = d.x != 0.0f ? vsAxisExit(o.x, d.x, invD.x, boxMin.x, boxEnd.x) : VS_T_INFINITY;
-  float ty = d.y != 0.0f ? vsAxisExit(o.y, d.y, invD.y, boxMin.y, boxEnd.y) : VS_T_INFINITY;
-  float tz = d.z != 0.0f ? vsAxisExit(o.z, d.z, invD.z, boxMin.z, boxEnd.z) : VS_T_INFINITY;
-  VS_PRECISE float tExit = min(min(tx, ty), tz);
-  int exitAxis = tz == tExit ? 2 : (ty == tExit ? 1 : 0);
-  bool inSpan = tExit < t1;  // false past the span, or with no face at all
-  tExit = max(tExit, tEnter);
-
-  // Past the box's face on the exit axis; the canonical coordinate on the others.
-  int ex = d.x > 0.0f ? boxEnd.x : boxMin.x - 1;
-  int ey = d.y > 0.0f ? boxEnd.y : boxMin.y - 1;
-  int ez = d.z > 0.0f ? boxEnd.z : boxMin.z - 1;
-  next.x = exitAxis == 0 ? ex : vsAxisNext(o.x, d.x, invD.x, v.x, boxMin.x, boxEnd.x, tExit, 0, exitAxis);
-  next.y = exitAxis == 1 ? ey : vsAxisNext(o.y, d.y, invD.y, v.y, boxMin.y, boxEnd.y, tExit, 1, exitAxis);
-  next.z = exitAxis == 2 ? ez : vsAxisNext(o.z, d.z, invD.z, v.z, boxMin.z, boxEnd.z, tExit, 2, exitAxis);
-  tNext = tExit;
-  int exitCoord = exitAxis == 0 ? ex : (exitAxis == 1 ? ey : ez);
-  int exitMin = exitAxis == 0 ? vmin.x : (exitAxis == 1 ? vmin.y : vmin.z);
-  int exitMax = exitAxis == 0 ? vmax.x : (exitAxis == 1 ? vmax.y : vmax.z);
-  return inSpan && exitCoord >= exitMin && exitCoord < exitMax;
+// The walk's ray, bounds and voxel in the form of the lane walk (compute/shared/lane_walk.h), with no box table.
+BoxWalk vsBoxWalkOf(VS_IN(ObjectWalk) w) {
+  BoxWalk b;
+  b.ox = w.o.x;
+  b.oy = w.o.y;
+  b.oz = w.o.z;
+  b.dx = w.d.x;
+  b.dy = w.d.y;
+  b.dz = w.d.z;
+  b.ix = w.invD.x;
+  b.iy = w.invD.y;
+  b.iz = w.invD.z;
+  b.t1 = w.t1;
+  b.minX = w.obj.voxelMin.x;
+  b.minY = w.obj.voxelMin.y;
+  b.minZ = w.obj.voxelMin.z;
+  b.maxX = w.obj.voxelMax.x;
+  b.maxY = w.obj.voxelMax.y;
+  b.maxZ = w.obj.voxelMax.z;
+  b.table = 0;
+  b.rowStride = 0;
+  b.sliceStride = 0;
+  b.vx = w.v.x;
+  b.vy = w.v.y;
+  b.vz = w.v.z;
+  b.tEnter = w.tEnter;
+  b.stepsLeft = w.stepsLeft;
+  b.hit = false;
+  return b;
 }
 
 // Moves the walk past the empty box [boxMin, boxEnd) that holds its voxel (vsBoxExit): returns
 // VS_WALK_CONTINUE on the box's next voxel in canonical order, or VS_WALK_MISS once the ray has left the object
 // or its span.
 int vsWalkLeaveBox(VS_INOUT(ObjectWalk) w, ivec3 boxMin, ivec3 boxEnd) {
-  ivec3 next = ivec3(0);
+  int nx = 0, ny = 0, nz = 0;
   float tNext = 0.0f;
-  if (!vsBoxExit(w.o, w.d, w.invD, w.v, w.tEnter, w.t1, ivec3(w.obj.voxelMin), ivec3(w.obj.voxelMax), boxMin,
-                 boxEnd, next, tNext))
+  if (!vsBoxExit(vsBoxWalkOf(w), boxMin.x, boxMin.y, boxMin.z, boxEnd.x, boxEnd.y, boxEnd.z, nx, ny, nz, tNext))
     return VS_WALK_MISS;
-  w.v = next;
+  w.v = ivec3(nx, ny, nz);
   w.tEnter = tNext;
   return VS_WALK_CONTINUE;
 }
@@ -332,55 +244,31 @@ int vsObjectWalkStep(VS_INOUT(ObjectWalk) w) {
   return vsWalkLeaveBox(w, cellMin, cellMin + ivec3(size));
 }
 
-#ifdef VS_READ_BOX_CODE
-// The walk over a box table: per object, one code per brick (VS_BOX_* in trace_view.h; LaneTables::brickCodes
-// of compute/cpu/lane_tracer.h), laid out like the object's region table with 16^3 bricks per region; a partial
-// brick's code is the table index of its occupancy words, and its cells are empty exactly where their occupancy
-// byte is 0. One read per step instead of the chain from the region table down, and boxes far larger than
-// aligned cells; the canonical order makes the result that of vsObjectWalkStep bit for bit.
-// The whole walk is one loop with a single exit, so that a SIMD shader keeps no per-step status: returns true
-// on a hit (w.v, w.tEnter hold it). `table` is the index of the code of brick (0, 0, 0) (it may lie outside
-// the table), `rowStride` and `sliceStride` the code index steps along y and z.
+// The walk over a box table (vsBoxWalkStep) from the walk's first voxel: returns true on a hit (w.v, w.tEnter
+// hold it). `table` is the index of the code of brick (0, 0, 0) (it may lie outside the table), `rowStride`
+// and `sliceStride` the code index steps along y and z. The whole walk is one loop with a single exit, so
+// that a SIMD shader keeps no per-step status.
 bool vsObjectWalkBoxes(VS_INOUT(ObjectWalk) w, int table, int rowStride, int sliceStride) {
-  ivec3 vmin = ivec3(w.obj.voxelMin);
-  ivec3 vmax = ivec3(w.obj.voxelMax);
-  ivec3 v = w.v;
-  float tEnter = w.tEnter;
-  int stepsLeft = w.stepsLeft;
-  bool hit = false;
-  for (;;) {
-    int code = VS_READ_BOX_CODE(table + (v.x >> VS_BRICK_LOG2) + rowStride * (v.y >> VS_BRICK_LOG2) +
-                                sliceStride * (v.z >> VS_BRICK_LOG2));
-    bool partial = code >= 0;
-    uint cellBit = vsChildBit(v, VS_CELL_LOG2);
-    uint voxelBit = cellBit * 8u + uint((v.x & 1) + 2 * (v.y & 1) + 4 * (v.z & 1));
-    uint word = uint(VS_READ_BOX_CODE(partial ? code + int(voxelBit >> 5u) : 0));
-    bool solid = code == VS_BOX_FULL || (partial && ((word >> (voxelBit & 31u)) & 1u) != 0u);
-    bool cellEmpty = ((word >> ((cellBit & 3u) * 8u)) & 0xffu) == 0u;
-    int box = partial || code == VS_BOX_FULL ? 0 : -1 - code;
-    int log2 = partial ? (cellEmpty ? VS_CELL_LOG2 : 0) : box >> VS_BOX_LOG2_SHIFT;
-    ivec3 cell = v >> log2;
-    const int bits = VS_BOX_EXTENT_BITS;
-    ivec3 below = ivec3(box, box >> (2 * bits), box >> (4 * bits)) & ivec3(VS_BOX_EXTENT_MASK);
-    ivec3 above = ivec3(box >> bits, box >> (3 * bits), box >> (5 * bits)) & ivec3(VS_BOX_EXTENT_MASK);
-    ivec3 next = v;
-    float tNext = tEnter;
-    bool stays = vsBoxExit(w.o, w.d, w.invD, v, tEnter, w.t1, vmin, vmax, (cell - below) << log2,
-                           (cell + above + ivec3(1)) << log2, next, tNext);
-    // Every step, the solid one included, counts against the bound.
-    if (stepsLeft <= 0 || solid || !stays) {
-      hit = stepsLeft > 0 && solid;
-      break;
-    }
-    v = next;
-    tEnter = tNext;
-    stepsLeft -= 1;
-  }
-  w.v = v;
-  w.tEnter = tEnter;
-  return hit;
+  BoxWalk b = vsBoxWalkOf(w);
+  b.table = table;
+  b.rowStride = rowStride;
+  b.sliceStride = sliceStride;
+  bool walking = true;
+  while (walking) walking = vsBoxWalkStep(b, walking);
+  w.v = ivec3(b.vx, b.vy, b.vz);
+  w.tEnter = b.tEnter;
+  return b.hit;
 }
-#endif
+
+// The box table's arguments of vsObjectWalkBoxes for one object: its first code's index, less the code index
+// of brick (0, 0, 0) relative to the object's brick origin; and the row and slice strides.
+ivec3 vsBoxTableOf(uint objectIndex, ObjectRecord obj) {
+  ivec3 dims = ivec3(obj.regionDims) * 16;  // bricks per axis
+  ivec3 origin = ivec3(obj.regionOrigin) * 16;
+  // The table starts with each object's first code.
+  int table = VS_READ_BOX_CODE(objectIndex) - (origin.x + dims.x * (origin.y + dims.y * origin.z));
+  return ivec3(table, dims.x, dims.x * dims.y);
+}
 
 // Closest solid voxel of one object along o + t*d (brick space; t is the caller's parameter, kept through
 // the affine map), for t in [tMin, tMax]. On a hit returns true with tHit the entry t and voxel its coordinate.
@@ -389,61 +277,19 @@ bool vsTraceObject(uint objectIndex, vec3 o, vec3 d, float tMin, float tMax, VS_
   ObjectWalk w;
   if (!vsObjectWalkBegin(objectIndex, o, d, tMin, tMax, w)) return false;
   int status = VS_WALK_CONTINUE;
-#ifdef VS_READ_BOX_CODE
-  // VS_BOX_TABLE is a specialization constant: each pipeline holds one of the two loops, and the host binds a
-  // box table covering every object whenever it is set. (A loop left in the code costs llvmpipe one masked
-  // pass through its body even when no lane takes it.)
+  // VS_BOX_TABLE is a specialization constant in the shader: each pipeline holds one of the two loops, and the
+  // host binds a box table covering every object whenever it is set. (A loop left in the code costs llvmpipe
+  // one masked pass through its body even when no lane takes it.) In C++ it says whether a table is bound.
   if (VS_BOX_TABLE) {
-    ivec3 dims = ivec3(w.obj.regionDims) * 16;  // bricks per axis
-    ivec3 origin = ivec3(w.obj.regionOrigin) * 16;
-    // The table starts with each object's first code.
-    int table = VS_READ_BOX_CODE(objectIndex) - (origin.x + dims.x * (origin.y + dims.y * origin.z));
-    status = vsObjectWalkBoxes(w, table, dims.x, dims.x * dims.y) ? VS_WALK_HIT : VS_WALK_MISS;
+    ivec3 table = vsBoxTableOf(objectIndex, w.obj);
+    status = vsObjectWalkBoxes(w, table.x, table.y, table.z) ? VS_WALK_HIT : VS_WALK_MISS;
   } else
-#endif
   while (status == VS_WALK_CONTINUE) status = vsObjectWalkStep(w);
   if (status != VS_WALK_HIT) return false;
   tHit = w.tEnter;
   voxel = w.v;
   return true;
 }
-
-vec3 vsApplyAffine(Affine m, vec3 p) {
-  VS_PRECISE float x = m.row0.x * p.x + m.row0.y * p.y + m.row0.z * p.z + m.row0.w;
-  VS_PRECISE float y = m.row1.x * p.x + m.row1.y * p.y + m.row1.z * p.z + m.row1.w;
-  VS_PRECISE float z = m.row2.x * p.x + m.row2.y * p.y + m.row2.z * p.z + m.row2.w;
-  return vec3(x, y, z);
-}
-
-vec3 vsApplyLinear(Affine m, vec3 v) {
-  VS_PRECISE float x = m.row0.x * v.x + m.row0.y * v.y + m.row0.z * v.z;
-  VS_PRECISE float y = m.row1.x * v.x + m.row1.y * v.y + m.row1.z * v.z;
-  VS_PRECISE float z = m.row2.x * v.x + m.row2.y * v.y + m.row2.z * v.z;
-  return vec3(x, y, z);
-}
-
-// Slab test of o + t*d against a box; returns the entry t, or VS_T_INFINITY when [tMin, tMax] misses it.
-float vsBoxEntry(vec3 bmin, vec3 bmax, vec3 o, vec3 d, float tMin, float tMax) {
-  float t0 = tMin;
-  float t1 = tMax;
-  float inv = 0.0f;
-  bool inX = vsClipAxis(o.x, d.x, bmin.x, bmax.x, false, t0, t1, inv);
-  bool inY = vsClipAxis(o.y, d.y, bmin.y, bmax.y, false, t0, t1, inv);
-  bool inZ = vsClipAxis(o.z, d.z, bmin.z, bmax.z, false, t0, t1, inv);
-  return inX && inY && inZ && t0 <= t1 ? t0 : VS_T_INFINITY;
-}
-
-// A world ray, kept eye-relative (DESIGN.md §6): the points eyeHigh + eyeLow + start + d*t, t in [tMin, tMax].
-// The eye is two floats (their sum holds it to about 48 bits), so that a ray keeps its precision however far
-// from the world origin its eye lies; start (a directional view's near-plane point) is relative to the eye.
-struct WorldRay {
-  vec3 eyeHigh;
-  vec3 eyeLow;
-  vec3 start;
-  vec3 d;
-  float tMin;
-  float tMax;
-};
 
 // The ray origin + t*d, t in [tMin, tMax], of a float origin.
 WorldRay vsWorldRay(vec3 origin, vec3 d, float tMin, float tMax) {
@@ -457,96 +303,18 @@ WorldRay vsWorldRay(vec3 origin, vec3 d, float tMin, float tMax) {
   return ray;
 }
 
-// The ray's start in float, for culling against world boxes only (vsCullPad bounds its error).
-vec3 vsCullOrigin(WorldRay ray) {
-  VS_PRECISE vec3 o = ray.eyeHigh + ray.start;
-  return o;
-}
-
-// How far a world box is grown for the culling tests of one ray: more than the rounding of vsCullOrigin and
-// of the slab test's arithmetic (a few ulps of the largest magnitude involved), so that culling never drops an
-// instance the exact ray enters; a culling test that keeps too much costs a walk, never a result.
-float vsCullPad(WorldRay ray) {
-  vec3 o = abs(ray.eyeHigh) + abs(ray.start);
-  VS_PRECISE vec3 reach = abs(ray.d) * max(abs(ray.tMin), abs(ray.tMax));
-  VS_PRECISE float scale = max(max(o.x, o.y), o.z) + max(max(reach.x, reach.y), reach.z);
-  return scale * (1.0f / 1048576.0f);
-}
-
-// x with its 12 most significant bits kept (the rest cleared, toward zero): the product of two such values, or
-// of one and a remainder x - vsKeepHighBits(x), is exact in float.
-float vsKeepHighBits(float x) { return uintBitsToFloat(floatBitsToUint(x) & 0xfffff000u); }
-vec3 vsKeepHighBits3(vec3 x) { return uintBitsToFloat(floatBitsToUint(x) & uvec3(0xfffff000u)); }
-
-// a + b = s + e exactly (Knuth's two-sum; no fused or reordered operations).
-void vsTwoSum(vec3 a, vec3 b, VS_OUT(vec3) s, VS_OUT(vec3) e) {
-  VS_PRECISE vec3 sum = a + b;
-  VS_PRECISE vec3 bVirtual = sum - a;
-  VS_PRECISE vec3 err = (a - (sum - bVirtual)) + (b - bVirtual);
-  s = sum;
-  e = err;
-}
-
 // Where a ray enters an instance's world box grown by vsCullPad, or VS_T_INFINITY when it misses it.
 float vsInstanceEntry(WorldRay ray, uint instanceIndex) {
-  float pad = vsCullPad(ray);
-  return vsBoxEntry(VS_READ_INSTANCE_BOUNDS_MIN(instanceIndex) - vec3(pad),
-                    VS_READ_INSTANCE_BOUNDS_MAX(instanceIndex) + vec3(pad), vsCullOrigin(ray), ray.d, ray.tMin,
-                    ray.tMax);
-}
-
-// The t at which a ray's walk through an instance is re-based, from its vsInstanceEntry: the entry, or tMin when
-// it misses the box, cut toward zero to 16 significant bits. The cut moves the base back by less than 2^-15 of
-// t (at most 2^11 voxels within limits::kMaxRayVoxels), and keeps exact inputs exact: a ray with short
-// coordinates gets a short re-based origin and the very t it got before re-basing. It depends on the ray and
-// the instance alone, never on a backend's state.
-float vsBaseT(WorldRay ray, float entry) {
-  float t = entry == VS_T_INFINITY ? ray.tMin : entry;
-  return uintBitsToFloat(floatBitsToUint(t) & 0xffffff00u);
+  return vsInstanceBoxEntry(ray, VS_READ_INSTANCE_BOUNDS_MIN(instanceIndex), VS_READ_INSTANCE_BOUNDS_MAX(instanceIndex));
 }
 float vsInstanceBaseT(WorldRay ray, uint instanceIndex) { return vsBaseT(ray, vsInstanceEntry(ray, instanceIndex)); }
 
-// The ray's point at tBase relative to `anchor`, rounded once: d * tBase is split into four exact products
-// (each factor cut into 12-bit halves), and the eye, the start and those products are summed with every
-// rounding error carried, so the result is as precise as its own magnitude (near the instance) allows, not as
-// the eye's distance from the world origin or from the instance does.
-vec3 vsRebasedPoint(WorldRay ray, float tBase, vec3 anchor) {
-  vec3 dHigh = vsKeepHighBits3(ray.d);
-  VS_PRECISE vec3 dLow = ray.d - dHigh;
-  float tHigh = vsKeepHighBits(tBase);
-  VS_PRECISE float tLow = tBase - tHigh;
-  VS_PRECISE vec3 pHighHigh = dHigh * tHigh;
-  VS_PRECISE vec3 pHighLow = dHigh * tLow;
-  VS_PRECISE vec3 pLowHigh = dLow * tHigh;
-  VS_PRECISE vec3 pLowLow = dLow * tLow;
-  vec3 s = vec3(0.0f);
-  vec3 e1 = vec3(0.0f);
-  vec3 e2 = vec3(0.0f);
-  vec3 e3 = vec3(0.0f);
-  vec3 e4 = vec3(0.0f);
-  vec3 e5 = vec3(0.0f);
-  vsTwoSum(ray.eyeHigh, -anchor, s, e1);
-  vsTwoSum(s, pHighHigh, s, e2);
-  vsTwoSum(s, ray.start, s, e3);
-  vsTwoSum(s, pHighLow, s, e4);
-  vsTwoSum(s, pLowHigh, s, e5);
-  VS_PRECISE vec3 small = (((e1 + e2) + (e3 + e4)) + (e5 + pLowLow)) + ray.eyeLow;
-  VS_PRECISE vec3 rel = s + small;
-  return rel;
-}
-
 // The brick-space ray of one instance, re-based at tBase: brick-space t is the world t less tBase.
 void vsInstanceRay(WorldRay ray, uint instanceIndex, float tBase, VS_OUT(vec3) lo, VS_OUT(vec3) ld) {
-  Affine worldToBrick = VS_READ_WORLD_TO_BRICK(instanceIndex);
-  lo = vsApplyAffine(worldToBrick, vsRebasedPoint(ray, tBase, VS_READ_INSTANCE_ANCHOR(instanceIndex)));
-  ld = vsApplyLinear(worldToBrick, ray.d);
+  vsInstanceRayOf(ray, VS_READ_WORLD_TO_BRICK(instanceIndex), VS_READ_INSTANCE_ANCHOR(instanceIndex), tBase, lo, ld);
 }
 
-// A walk's span and hit in world t, from and to the instance's re-based t.
-float vsLocalT(float t, float tBase) {
-  VS_PRECISE float local = t - tBase;
-  return local;
-}
+// A walk's hit in world t, from the instance's re-based t.
 float vsWorldT(float tLocal, float tBase) {
   VS_PRECISE float world = tBase + tLocal;
   return world;
@@ -691,17 +459,6 @@ float vsTexelValue(TraceView view, WorldRay ray, bool hit, float tHit, uint inst
   return tHit;
 }
 
-// Whether every component of a ray is finite. Comparisons, not isnan/isinf, so that GLSL and C++ read it
-// alike: a NaN fails every comparison. A non-finite ray (a degenerate view matrix) is a miss, so that no
-// tracer turns it into a voxel coordinate.
-bool vsIsFinite3(vec3 v) {
-  vec3 a = abs(v);
-  return a.x <= VS_T_INFINITY && a.y <= VS_T_INFINITY && a.z <= VS_T_INFINITY;
-}
-bool vsRayIsFinite(WorldRay ray) {
-  return vsIsFinite3(ray.eyeHigh) && vsIsFinite3(ray.eyeLow) && vsIsFinite3(ray.start) && vsIsFinite3(ray.d) &&
-         abs(ray.tMin) <= VS_T_INFINITY && abs(ray.tMax) <= VS_T_INFINITY;
-}
 
 // The texel value of one view texel.
 float vsShadowTexel(TraceView view, ivec2 texel) {

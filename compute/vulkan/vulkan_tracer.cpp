@@ -9,7 +9,7 @@
 #include <limits>
 #include <map>
 
-#include "compute/cpu/lane_tracer.h"
+#include "compute/box_table.h"
 #include "compute/vulkan/pipeline_cache.h"
 #include "shadow_trace.spv.h"
 #include "compute/shared/trace_interface.h"
@@ -293,27 +293,6 @@ struct VulkanTracer::Impl {
       context.upload(dst.buffers[b], 0, bytes + b * elementsPerBuffer * elementSize, dst.buffers[b].size);
   }
 
-  // The box table of vsObjectWalkBoxes from the CPU fast path's brick codes: each object's first code
-  // (offset past this header), then the codes, then a copy of the occupancy words, to which the codes of
-  // partial bricks point, so that a step reads this one texel buffer only. Empty when the tables cannot be
-  // built for the scene (too large, or cells whose mask differs from their occupancy byte) or exceed
-  // `maxElements` texels: the walk then reads the hierarchy.
-  static std::vector<std::int32_t> boxTable(const SceneData& scene, std::uint64_t maxElements) {
-    LaneTables tables;
-    if (!buildLaneTables(scene, tables) || tables.brickCodes.empty()) return {};
-    const std::uint64_t heads = scene.objects.size();
-    const std::uint64_t occupancyStart = heads + tables.brickCodes.size();
-    const std::uint64_t total = occupancyStart + scene.occupancy.size();
-    if (total > maxElements || total > std::uint64_t(std::numeric_limits<std::int32_t>::max())) return {};
-    std::vector<std::int32_t> table;
-    table.reserve(total);
-    for (std::size_t o = 0; o < heads; ++o) table.push_back(std::int32_t(heads) + tables.objectBrickBase[o]);
-    for (std::int32_t code : tables.brickCodes)
-      table.push_back(code >= 0 && code != kLaneFullBrick ? code + std::int32_t(occupancyStart) : code);
-    for (std::uint32_t word : scene.occupancy) table.push_back(std::bit_cast<std::int32_t>(word));
-    return table;
-  }
-
   // The most texels one texel-buffer binding may hold: the device limit, or the test override in bytes.
   std::uint64_t texelLimit() const {
     std::uint64_t limit = context.info().maxTexelBufferElements;
@@ -323,7 +302,7 @@ struct VulkanTracer::Impl {
 
   void upload(const SceneData& scene) {
     std::vector<std::int32_t> table;
-    if (options.boxTable) table = boxTable(scene, texelLimit());
+    if (options.boxTable) table = buildBoxTable(scene, texelLimit());
     upload(SceneArrays::from(scene), table);
   }
 
