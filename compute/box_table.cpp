@@ -127,21 +127,22 @@ bool testBit(glm::uvec2 mask, std::uint32_t bit) { return (((bit < 32u ? mask.x 
 // False when its cells' masks disagree with their occupancy bytes.
 bool brickCode(const SceneData& scene, const gpu::ObjectRecord& obj, glm::ivec3 brick, std::int32_t& code) {
   const glm::ivec3 region = (brick >> (gpu::VS_REGION_LOG2 - gpu::VS_BRICK_LOG2)) - glm::ivec3(obj.regionOrigin);
-  const std::uint32_t slot =
-      scene.regionTable[obj.bases.x + std::uint32_t(region.x + obj.regionDims.x * (region.y + obj.regionDims.y * region.z))];
+  const int slotIndex = region.x + obj.regionDims.x * (region.y + obj.regionDims.y * region.z);
+  const std::uint32_t slot = scene.regionTable[obj.bases.x + std::uint32_t(slotIndex)];
   code = -gpu::VS_REGION_LOG2;
   if (slot == gpu::VS_EMPTY_SLOT) return true;
   const glm::ivec3 voxel = brick << gpu::VS_BRICK_LOG2;
   const gpu::Region& r = scene.regions[obj.bases.y + slot];
-  const std::uint32_t sectorBit = std::uint32_t(((voxel.x >> gpu::VS_SECTOR_LOG2) & 3) + 4 * ((voxel.y >> gpu::VS_SECTOR_LOG2) & 3) +
-                                                16 * ((voxel.z >> gpu::VS_SECTOR_LOG2) & 3));
+  const glm::ivec3 sectorInRegion = (voxel >> gpu::VS_SECTOR_LOG2) & 3;
+  const std::uint32_t sectorBit = std::uint32_t(sectorInRegion.x + 4 * sectorInRegion.y + 16 * sectorInRegion.z);
   code = -gpu::VS_SECTOR_LOG2;
   if (!testBit(r.sectorMask, sectorBit)) return true;
   const gpu::Sector& sector = scene.sectors[obj.bases.z + r.firstSector + rankBelow(r.sectorMask, sectorBit)];
   const std::uint32_t brickBit = std::uint32_t((brick.x & 3) + 4 * (brick.y & 3) + 16 * (brick.z & 3));
   code = -gpu::VS_BRICK_LOG2;
   if (!testBit(sector.brickMask, brickBit)) return true;
-  const gpu::Brick& b = scene.bricks[std::size_t(obj.bases.w) + sector.firstBrick + rankBelow(sector.brickMask, brickBit)];
+  const gpu::Brick& b =
+      scene.bricks[std::size_t(obj.bases.w) + sector.firstBrick + rankBelow(sector.brickMask, brickBit)];
   if (b.occupancy == gpu::VS_FULL_BRICK) {
     code = gpu::VS_BOX_FULL;
     return true;
@@ -164,7 +165,8 @@ std::vector<std::int32_t> buildBoxTable(const SceneData& scene, std::uint64_t ma
   const std::uint64_t heads = scene.objects.size();
   std::uint64_t codes = 0;
   for (const gpu::ObjectRecord& obj : scene.objects)
-    codes += std::uint64_t(obj.regionDims.x) * std::uint64_t(obj.regionDims.y) * std::uint64_t(obj.regionDims.z) * 4096u;
+    codes += std::uint64_t(obj.regionDims.x) * std::uint64_t(obj.regionDims.y) * std::uint64_t(obj.regionDims.z) *
+             4096u;
   const std::uint64_t occupancyStart = heads + codes;
   if (occupancyStart + scene.occupancy.size() > maxElements) return {};
   std::vector<std::int32_t> table(occupancyStart + scene.occupancy.size());

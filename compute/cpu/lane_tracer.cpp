@@ -43,18 +43,8 @@ using gpu::LFloat;
 using gpu::LInt;
 using gpu::vsLaneAny;
 using gpu::vsSelect;
-using gpu::VS_BOX_EXTENT_BITS;
-using gpu::VS_BOX_EXTENT_MASK;
-using gpu::VS_BOX_FULL;
-using gpu::VS_BOX_LOG2_SHIFT;
-using gpu::VS_BRICK_LOG2;
-using gpu::VS_CELL_LOG2;
-using gpu::VS_T_INFINITY;
 using gpu::LVec3;
 using gpu::vsMaskFloatBits;
-using gpu::Affine;
-using gpu::ObjectRecord;
-using uint = std::uint32_t;
 constexpr int kLanes = 1;
 inline void setLane(float& x, int, float value) { x = value; }
 inline void setLane(int& x, int, int value) { x = value; }
@@ -80,18 +70,6 @@ inline int gatherLanes(const std::int32_t* table, bool mask, int index) { return
 #endif
 namespace lanes_avx2 {
 namespace {
-using gpu::VS_BOX_EXTENT_BITS;
-using gpu::VS_BOX_EXTENT_MASK;
-using gpu::VS_BOX_FULL;
-using gpu::VS_BOX_LOG2_SHIFT;
-using gpu::VS_BRICK_LOG2;
-using gpu::VS_CELL_LOG2;
-using gpu::VS_T_INFINITY;
-using gpu::Affine;
-using gpu::ObjectRecord;
-using glm::ivec3;
-using glm::vec3;
-using uint = std::uint32_t;
 #include "compute/cpu/lanes_avx2.h"
 #include "compute/cpu/lane_vec3.h"
 #include "compute/cpu/lane_driver.inc"
@@ -117,18 +95,6 @@ using uint = std::uint32_t;
 #endif
 namespace lanes_avx512 {
 namespace {
-using gpu::VS_BOX_EXTENT_BITS;
-using gpu::VS_BOX_EXTENT_MASK;
-using gpu::VS_BOX_FULL;
-using gpu::VS_BOX_LOG2_SHIFT;
-using gpu::VS_BRICK_LOG2;
-using gpu::VS_CELL_LOG2;
-using gpu::VS_T_INFINITY;
-using gpu::Affine;
-using gpu::ObjectRecord;
-using glm::ivec3;
-using glm::vec3;
-using uint = std::uint32_t;
 #include "compute/cpu/lanes_avx512.h"
 #include "compute/cpu/lane_vec3.h"
 #include "compute/cpu/lane_driver.inc"

@@ -44,7 +44,9 @@ inline LFloat operator*(const LFloat& a, const LFloat& b) { return LFloat(_mm256
 inline LFloat operator/(const LFloat& a, const LFloat& b) { return LFloat(_mm256_div_ps(a.v, b.v)); }
 inline LFloat operator-(const LFloat& a) { return LFloat(_mm256_xor_ps(a.v, _mm256_set1_ps(-0.0f))); }
 // x with only the bits of `mask` kept.
-inline LFloat vsMaskFloatBits(const LFloat& x, std::uint32_t mask) { return LFloat(_mm256_and_ps(x.v, _mm256_castsi256_ps(_mm256_set1_epi32(int(mask))))); }
+inline LFloat vsMaskFloatBits(const LFloat& x, std::uint32_t mask) {
+  return LFloat(_mm256_and_ps(x.v, _mm256_castsi256_ps(_mm256_set1_epi32(int(mask)))));
+}
 inline LBool floatCompare(__m256 r) { return LBool(_mm256_castps_si256(r)); }
 inline LBool operator<(const LFloat& a, const LFloat& b) { return floatCompare(_mm256_cmp_ps(a.v, b.v, _CMP_LT_OQ)); }
 inline LBool operator<=(const LFloat& a, const LFloat& b) { return floatCompare(_mm256_cmp_ps(a.v, b.v, _CMP_LE_OQ)); }
@@ -72,7 +74,9 @@ inline LInt vsSelect(const LBool& c, const LInt& a, const LInt& b) { return LInt
 inline LFloat vsSelect(const LBool& c, const LFloat& a, const LFloat& b) {
   return LFloat(_mm256_blendv_ps(b.v, a.v, _mm256_castsi256_ps(c.m)));
 }
-inline LBool vsSelect(const LBool& c, const LBool& a, const LBool& b) { return LBool(_mm256_blendv_epi8(b.m, a.m, c.m)); }
+inline LBool vsSelect(const LBool& c, const LBool& a, const LBool& b) {
+  return LBool(_mm256_blendv_epi8(b.m, a.m, c.m));
+}
 inline bool vsLaneAny(const LBool& b) { return !_mm256_testz_si256(b.m, b.m); }
 
 // glm: min(x, y) = y < x ? y : x and max(x, y) = x < y ? y : x; minps(a, b) = a < b ? a : b.

@@ -41,9 +41,13 @@ inline LFloat operator+(const LFloat& a, const LFloat& b) { return LFloat(_mm512
 inline LFloat operator-(const LFloat& a, const LFloat& b) { return LFloat(_mm512_sub_ps(a.v, b.v)); }
 inline LFloat operator*(const LFloat& a, const LFloat& b) { return LFloat(_mm512_mul_ps(a.v, b.v)); }
 inline LFloat operator/(const LFloat& a, const LFloat& b) { return LFloat(_mm512_div_ps(a.v, b.v)); }
-inline LFloat operator-(const LFloat& a) { return LFloat(_mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(a.v), _mm512_set1_epi32(int(0x80000000u))))); }
+inline LFloat operator-(const LFloat& a) {
+  return LFloat(_mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(a.v), _mm512_set1_epi32(int(0x80000000u)))));
+}
 // x with only the bits of `mask` kept.
-inline LFloat vsMaskFloatBits(const LFloat& x, std::uint32_t mask) { return LFloat(_mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(x.v), _mm512_set1_epi32(int(mask))))); }
+inline LFloat vsMaskFloatBits(const LFloat& x, std::uint32_t mask) {
+  return LFloat(_mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(x.v), _mm512_set1_epi32(int(mask)))));
+}
 inline LBool operator<(const LFloat& a, const LFloat& b) { return LBool(_mm512_cmp_ps_mask(a.v, b.v, _CMP_LT_OQ)); }
 inline LBool operator<=(const LFloat& a, const LFloat& b) { return LBool(_mm512_cmp_ps_mask(a.v, b.v, _CMP_LE_OQ)); }
 inline LBool operator>(const LFloat& a, const LFloat& b) { return LBool(_mm512_cmp_ps_mask(a.v, b.v, _CMP_GT_OQ)); }
@@ -67,7 +71,9 @@ inline LBool operator>=(const LInt& a, const LInt& b) { return LBool(_mm512_cmpg
 inline LBool operator<=(const LInt& a, const LInt& b) { return LBool(_mm512_cmple_epi32_mask(a.v, b.v)); }
 
 // _mm512_mask_blend(k, x, y) takes y where k is set.
-inline LInt vsSelect(const LBool& c, const LInt& a, const LInt& b) { return LInt(_mm512_mask_blend_epi32(c.m, b.v, a.v)); }
+inline LInt vsSelect(const LBool& c, const LInt& a, const LInt& b) {
+  return LInt(_mm512_mask_blend_epi32(c.m, b.v, a.v));
+}
 inline LFloat vsSelect(const LBool& c, const LFloat& a, const LFloat& b) {
   return LFloat(_mm512_mask_blend_ps(c.m, b.v, a.v));
 }
