@@ -4,8 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <glm/gtc/matrix_transform.hpp>
+
+#include "lighting/cascades.h"
 
 namespace vs {
 
@@ -76,7 +79,9 @@ glm::dmat4 directionalViewProj(const glm::dvec3& forward, const Aabb& worldBound
 
 }  // namespace
 
-std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& worldBounds) {
+std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& worldBounds, const CameraFrame* camera) {
+  std::optional<CameraFrame> sceneCamera;
+  if (!camera && scene.camera) camera = &sceneCamera.emplace(cameraFrame(*scene.camera));
   std::vector<LightView> views;
   for (std::size_t li = 0; li < scene.lights.size(); ++li) {
     const LightDesc& light = scene.lights[li];
@@ -87,8 +92,36 @@ std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& world
     switch (light.type) {
       case LightType::Directional: {
         glm::dvec3 forward = glm::normalize(glm::dvec3(light.direction));
-        views.push_back(makeView(light, index, light.name, gpu::VS_ENCODING_NDC_DEPTH,
-                                 directionalViewProj(forward, worldBounds), directionalEye(worldBounds), 1.0f));
+        if (camera) {
+          const double farPlane = std::min(double(light.shadow->maxDistance), camera->farPlane);
+          const double nearPlane = std::min(camera->nearPlane, 0.5 * farPlane);
+          const std::vector<double> splits =
+              cascadeSplits(nearPlane, farPlane, light.shadow->cascades, light.shadow->lambda);
+          for (int c = 0; c < light.shadow->cascades; ++c) {
+            const CascadeFit fit = fitCascade(*camera, splits[std::size_t(c)], splits[std::size_t(c) + 1], forward,
+                                              light.shadow->resolution, worldBounds);
+            LightView v = makeView(light, index, light.name + ".cascade" + std::to_string(c),
+                                   gpu::VS_ENCODING_NDC_DEPTH, fit.worldToClip, fit.eye, 1.0f);
+            v.cascade = c;
+            v.splitNear = splits[std::size_t(c)];
+            v.splitFar = splits[std::size_t(c) + 1];
+            v.texelWorld = fit.texelWorld;
+            views.push_back(std::move(v));
+          }
+          break;
+        }
+        const glm::dmat4 viewProj = directionalViewProj(forward, worldBounds);
+        views.push_back(makeView(light, index, light.name, gpu::VS_ENCODING_NDC_DEPTH, viewProj,
+                                 directionalEye(worldBounds), 1.0f));
+        // The larger of the two texel sides (the fit is not square in world units).
+        const glm::dmat4 inv = glm::inverse(viewProj);
+        auto world = [&](double x, double y) {
+          glm::dvec4 p = inv * glm::dvec4(x, y, 0.0, 1.0);
+          return glm::dvec3(p) / p.w;
+        };
+        views.back().texelWorld = std::max(glm::length(world(1, -1) - world(-1, -1)),
+                                           glm::length(world(-1, 1) - world(-1, -1))) /
+                                  double(light.shadow->resolution);
         break;
       }
       case LightType::Spot: {
@@ -99,6 +132,7 @@ std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& world
                                                 range * kNearOverRange, range);
         views.push_back(makeView(light, index, light.name, gpu::VS_ENCODING_LINEAR_DISTANCE, kFlipY * proj * view,
                                  position, light.range));
+        views.back().texelWorld = 2.0 * std::tan(glm::radians(double(light.outerConeDeg))) / double(light.shadow->resolution);
         break;
       }
       case LightType::Point: {
@@ -112,6 +146,7 @@ std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& world
           glm::dmat4 view = glm::lookAtRH(position, position + kForward[f], kTAxis[f]);
           views.push_back(makeView(light, index, light.name + ".face" + kCubeFaceNames[f],
                                    gpu::VS_ENCODING_LINEAR_DISTANCE, proj * view, position, light.range));
+          views.back().texelWorld = 2.0 / double(light.shadow->resolution);
         }
         break;
       }

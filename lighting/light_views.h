@@ -9,13 +9,14 @@
 
 #include "bvh/bvh.h"
 #include "compute/shared/trace_view.h"
+#include "lighting/camera.h"
 #include "lighting/scene_file.h"
 
 namespace vs {
 
 struct LightView {
   std::string light;    // the light's name
-  std::string name;     // the layer's name: "<light>" or "<light>.face<+x|-x|+y|-y|+z|-z>"
+  std::string name;     // the layer's name: "<light>", "<light>.cascade<i>" or "<light>.face<+x|-x|+y|-y|+z|-z>"
   int lightIndex = 0;   // into SceneDesc::lights
   int resolution = 0;   // width = height, texels
   int encoding = 0;     // VS_ENCODING_NDC_DEPTH (directional) or VS_ENCODING_LINEAR_DISTANCE (spot, point)
@@ -29,15 +30,23 @@ struct LightView {
   glm::dvec3 eye{0.0};
   glm::dmat4 eyeToClip{1.0};
   gpu::TraceView trace{};    // the record the trace kernels read (the whole view as its rectangle)
+  // Cascades: the index (-1 for every other view) and the camera view depths it covers.
+  int cascade = -1;
+  double splitNear = 0.0, splitFar = 0.0;
+  // The world size of one texel: directional views everywhere; spot and point views at unit distance from
+  // the light (it grows linearly with the distance).
+  double texelWorld = 0.0;
 };
 
 // Builds every shadowed light's views, in light order (a light without `shadow` gives none):
-// directional: one orthographic view fitted to worldBounds, its near plane before every caster and far plane
-// after the last; spot: a perspective view of fov 2 * outer cone; point: six 90-degree cube faces laid out as
+// directional with a camera (`camera`, else the scene's own): `cascades` views "<light>.cascade<i>"
+// (lighting/cascades.h), up to min(max_distance, the camera's far plane); directional without a camera: one
+// orthographic view fitted to worldBounds, its near plane before every caster and far plane after the last; spot: a perspective view of fov 2 * outer cone; point: six 90-degree cube faces laid out as
 // GPU cube maps sample them (+x, -x, +y, -y, +z, -z). Preconditions: `scene` as parseSceneJson returns it
 // (normalised directions, valid ranges). worldBounds may be empty (a scene without voxels): the directional
 // view then covers a unit box at the origin so its matrices stay finite.
-std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& worldBounds);
+std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& worldBounds,
+                                      const CameraFrame* camera = nullptr);
 
 // The cube face names in layer order: "+x", "-x", "+y", "-y", "+z", "-z".
 extern const char* const kCubeFaceNames[6];

@@ -546,6 +546,8 @@ class Parser {
       std::vector<std::string> names;
       if (l.type == LightType::Point)
         for (const char* face : {"+x", "-x", "+y", "-y", "+z", "-z"}) names.push_back(l.name + ".face" + face);
+      else if (l.type == LightType::Directional && scene.camera && l.shadow)
+        for (int c = 0; c < l.shadow->cascades; ++c) names.push_back(l.name + ".cascade" + std::to_string(c));
       else
         names.push_back(l.name);
       for (const std::string& n : names) {
@@ -560,7 +562,7 @@ class Parser {
   ShadowDesc parseShadow(const Json& sj, const std::string& path, LightType type, float defaultMaxDistance) const {
     requireObject(sj, path);
     checkKeys(sj, path, {"resolution", "cascades", "lambda", "max_distance", "filter", "depth_bias", "normal_bias",
-                         "depth_point"});
+                         "slope_bias", "light_size", "contact_shadow", "cascade_blend", "depth_point"});
     ShadowDesc s;
     s.maxDistance = defaultMaxDistance;
     if (auto it = sj.find("resolution"); it != sj.end()) {
@@ -599,6 +601,15 @@ class Parser {
     if (std::abs(s.depthBias) > limits::kMaxDepthBias)
       fail(key(path, "depth_bias"), "must be between " + fmt(-limits::kMaxDepthBias) + " and " + fmt(limits::kMaxDepthBias) + ", not " + fmt(s.depthBias));
     s.normalBias = nonNegative(sj, path, "normal_bias", s.normalBias, limits::kMaxNormalBias);
+    s.slopeBias = nonNegative(sj, path, "slope_bias", s.slopeBias, limits::kMaxDepthBias);
+    s.lightSize = nonNegative(sj, path, "light_size", s.lightSize, limits::kMaxDistance);
+    s.contactShadow = nonNegative(sj, path, "contact_shadow", s.contactShadow, limits::kMaxDistance);
+    if (auto it = sj.find("cascade_blend"); it != sj.end()) {
+      std::string bp = key(path, "cascade_blend");
+      if (type != LightType::Directional)
+        fail(bp, std::string("only directional lights have cascades, this is a ") + lightTypeName(type) + " light");
+      s.cascadeBlend = float(inRange(number(*it, bp), bp, 0.0, 0.5, "the blend band"));
+    }
     if (auto it = sj.find("depth_point"); it != sj.end()) {
       std::string d = string(*it, key(path, "depth_point"));
       if (d == "entry") s.depthPoint = gpu::VS_DEPTH_POINT_ENTRY;

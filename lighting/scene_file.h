@@ -60,7 +60,21 @@ struct ShadowDesc {
   float maxDistance = 1000.0f;  // default: the camera's far plane
   ShadowFilter filter = ShadowFilter::Pcf3;
   float depthBias = 0.0f;   // world units
-  float normalBias = 0.5f;  // texels
+  // Texels along the surface normal. 1.5 moves a receiver on a face the light grazes out of every texel
+  // that the face itself covers (a texel's diagonal is 1.41), so grazing faces do not shadow themselves.
+  float normalBias = 1.5f;
+  // Texels along the light, divided by max(N.L, 0.05): one texel at N.L = 1 covers a receiver up to a
+  // texel's half-diagonal from the texel's own ray on a tilted face (the depth there differs by that
+  // distance times tan of the tilt, which the division follows).
+  float slopeBias = 1.0f;
+  // pcss: the emitter's diameter in world units (a directional light's emitter lies on its view's near plane).
+  float lightSize = 0.5f;
+  // World length of the exact visibility ray toward the light that multiplies into the shadow-map term
+  // (0: off). It restores the contact that depth biases take away.
+  float contactShadow = 0.0f;
+  // Cascades: the far share of each cascade's depth range over which it blends into the next (the last one
+  // fades to lit), 0..0.5.
+  float cascadeBlend = 0.1f;
   int depthPoint = 0;       // VS_DEPTH_POINT_ENTRY or VS_DEPTH_POINT_VOXEL_CENTER (compute/shared/trace_view.h)
 };
 

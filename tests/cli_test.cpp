@@ -238,7 +238,8 @@ TEST(Cli, BakeWritesExrSidecarAndPreview) {
                 out),
             0)
       << out;
-  EXPECT_EQ(subimageNames(dir / "out.exr"), std::vector<std::string>{"sun"});
+  // The scene has a camera: its sun is baked as cascades (one here).
+  EXPECT_EQ(subimageNames(dir / "out.exr"), std::vector<std::string>{"sun.cascade0"});
   EXPECT_TRUE(fs::is_regular_file(dir / "out.exr.json"));
   EXPECT_TRUE(fs::is_regular_file(dir / "out.png"));
 }
@@ -251,6 +252,17 @@ TEST(Cli, DemoWritesAssetsAndBakedShadows) {
   ASSERT_TRUE(fs::is_regular_file(exr)) << out;
   EXPECT_TRUE(fs::is_regular_file(dir / "demo" / "demo_shadows.exr.json"));
   EXPECT_TRUE(fs::is_regular_file(dir / "demo" / "demo_shadows.png"));
+  // The lit image (README's picture): the camera's size, not one flat colour.
+  {
+    auto png = OIIO::ImageInput::open((dir / "demo" / "demo.png").string());
+    ASSERT_TRUE(png) << out;
+    EXPECT_EQ(png->spec().width, 1280);
+    EXPECT_EQ(png->spec().height, 720);
+    std::vector<unsigned char> rgb(std::size_t(1280) * 720 * 3);
+    ASSERT_TRUE(png->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, rgb.data()));
+    std::set<unsigned char> greys(rgb.begin(), rgb.end());
+    EXPECT_GT(greys.size(), 100u);
+  }
   EXPECT_TRUE(contains(out, ".vdb")) << out;  // the assets' info was printed
 
   // Expected subimages from the demo scene itself: every shadowed light has its views (six for a point

@@ -149,7 +149,10 @@ TEST_F(SceneFileTest, DesignExampleParsesWithDefaults) {
   EXPECT_EQ(lamp.shadow->filter, ShadowFilter::Poisson16);
   EXPECT_FLOAT_EQ(lamp.shadow->maxDistance, 400.0f) << "defaults to the camera's far plane";
   EXPECT_FLOAT_EQ(lamp.shadow->lambda, 0.7f);
-  EXPECT_FLOAT_EQ(lamp.shadow->normalBias, 0.5f);
+  EXPECT_FLOAT_EQ(lamp.shadow->normalBias, 1.5f);
+  EXPECT_FLOAT_EQ(lamp.shadow->slopeBias, 1.0f);
+  EXPECT_FLOAT_EQ(lamp.shadow->lightSize, 0.5f);
+  EXPECT_FLOAT_EQ(lamp.shadow->contactShadow, 0.0f);
   EXPECT_FLOAT_EQ(lamp.shadow->depthBias, 0.0f);
 
   const LightDesc& torch = s.lights[2];
@@ -451,7 +454,7 @@ TEST_F(SceneFileTest, SceneLoadBuildsInstancesAndViews) {
   }
   EXPECT_EQ(scene.data().instances.size(), 3u);
   EXPECT_FALSE(scene.worldBounds().empty());
-  EXPECT_EQ(scene.lightViews().size(), 1u + 1u + 6u);
+  EXPECT_EQ(scene.lightViews().size(), 3u + 1u + 6u);  // three sun cascades (the scene has a camera)
 
   Aabb before = scene.data().instanceBounds[0];
   scene.moveInstance(0, glm::translate(glm::dmat4(1.0), glm::dvec3(0, 100, 0)));

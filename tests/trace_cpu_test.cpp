@@ -397,7 +397,7 @@ TEST(TraceCpuReference, DemoSceneViews) {
     view.rect = glm::ivec4(0, 0, 192, 192);
     views.push_back(view);
   }
-  ASSERT_EQ(views.size(), 8u);  // sun, lamp, six torch faces
+  ASSERT_EQ(views.size(), 10u);  // three sun cascades, lamp, six torch faces
   // The torch sits on a corner of the ground's 0.5-unit voxel lattice, so the texel rays on its cube faces'
   // diagonals run exactly through voxel edges. The tracer re-bases each ray near the instance it enters
   // (vsRebasedPoint), so such a ray's brick-space origin is the lattice corner only to within its last bits,

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstring>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -774,4 +775,28 @@ TEST(VdbLoad, BoundsBeyondTheRegionTableAreRefusedBeforeExtraction) {
   EXPECT_EQ(vs::loadVdb(file.string(), raised).brickmap.solidCount(), 2u);
   const fs::path over = dir / "just_over.vdb";
   expectBadInput([&] { vs::loadVdb(over.string(), raised); }, {"would need more than 16777216 slots"});
+}
+
+// A leaf stored with an origin near the end of the 32-bit coordinate range (found by fuzzing): OpenVDB
+// computes its voxels' coordinates from that origin in ints, which overflowed inside its headers. The loader
+// refuses the node first; a node that ends exactly at the last coordinate still loads as far as that check.
+TEST(VdbLoad, NodeAtTheEndOfTheCoordinateRangeIsRefused) {
+  openvdb::initialize();
+  const std::string fuzzed =
+      (fs::path(VOXSHADOW_SOURCE_DIR) / "tests/fuzz/regressions/vdb/ubsan-tile-bounds-overflow.vdb").string();
+  expectBadInput([&] { vs::loadVdb(fuzzed); }, {fuzzed, "reaches beyond the 32-bit index coordinate range"});
+
+  const fs::path dir = vs::test::scratchDir("vdb_coordinate_end");
+  auto mask = openvdb::BoolGrid::create(false);
+  mask->setName("edge");
+  const int last = std::numeric_limits<int>::max();
+  mask->tree().setValueOn(openvdb::Coord(last, last, last), true);
+  const fs::path file = dir / "edge.vdb";
+  openvdb::io::File(file.string()).write({mask});
+  try {
+    vs::loadVdb(file.string());
+  } catch (const vs::Error& e) {
+    // Whatever refuses it (the brickmap's coordinate range), it is not the node check.
+    EXPECT_EQ(std::string(e.what()).find("reaches beyond"), std::string::npos) << e.what();
+  }
 }

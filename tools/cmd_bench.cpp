@@ -11,14 +11,19 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include <glm/glm.hpp>
 
 #include "compute/cpu/lane_tracer.h"
 #include "compute/tracer.h"
+#include "lighting/renderer.h"
+#include "lighting/scene.h"
 #include "tools/commands.h"
 #include "tools/resources.h"
 #include "tools/peer/openvdb_peer.h"
 #include "voxel/city512.h"
+#include "voxel/demo_world.h"
 #include "voxel/error.h"
 
 namespace vs::cli {
@@ -30,6 +35,7 @@ struct BenchOptions {
   int reps = 5;
   bool skipPeer = false;
   bool vulkan = false;
+  bool frame = false;
 };
 
 // The calibration window of DESIGN.md §10: an orthographic view along d over the projection of [0,512]^3.
@@ -311,6 +317,44 @@ void runBench(const BenchOptions& opt) {
   }
 }
 
+// The lit frame of the demo scene (1280 x 720; a sun in 3 cascades of 2048^2, a spot lamp at 1024^2, a point
+// torch at 6 x 512^2) with shadow maps and with ray-traced shadows, on the CPU backend and on Vulkan: the
+// median time of each stage over `reps` frames after a warm-up frame, all in this one run.
+void runFrameBench(const BenchOptions& opt) {
+  if (opt.reps < 1 || opt.reps > 1000) throwBadInput("--reps: must be between 1 and 1000, not " + std::to_string(opt.reps));
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("voxshadow-bench-" + std::to_string(::getpid()));
+  const std::vector<std::string> written = writeDemoWorld(dir);
+  const Scene scene = Scene::load(std::filesystem::path(written.back()));
+  std::filesystem::remove_all(dir);
+  std::vector<std::pair<std::string, std::unique_ptr<Tracer>>> backends;
+  backends.emplace_back("cpu", makeCpuTracer({CpuTracePath::Interleaved, opt.threads}));
+  if (opt.vulkan) backends.emplace_back("vulkan", makeVulkanTracer());
+  std::printf("demo frame 1280x720: sun 3 x 2048^2 cascades, lamp 1024^2, torch 6 x 512^2; %d reps after a warm-up\n",
+              opt.reps);
+  for (auto& [name, tracer] : backends) {
+    tracer->setScene(scene.data());
+    FrameRenderer renderer(*tracer);
+    for (ShadowSource source : {ShadowSource::Maps, ShadowSource::Raytraced}) {
+      RenderOptions options;
+      options.shadows = source;
+      renderer.render(scene, options);  // warm-up: pipelines, box table, buffers
+      std::vector<double> shadow, gbuffer, visibility, lighting, total;
+      for (int r = 0; r < opt.reps; ++r) {
+        const RenderTimings t = renderer.render(scene, options).timings;
+        shadow.push_back(t.shadowMs);
+        gbuffer.push_back(t.gbufferMs);
+        visibility.push_back(t.visibilityMs);
+        lighting.push_back(t.lightingMs);
+        total.push_back(t.shadowMs + t.gbufferMs + t.visibilityMs + t.lightingMs);
+      }
+      std::printf("%-7s %-9s shadow trace %8.1f ms  G-buffer %7.1f ms  visibility rays %7.1f ms  lighting %7.1f ms  "
+                  "frame %8.1f ms  (%s)\n",
+                  name.c_str(), source == ShadowSource::Maps ? "maps" : "raytraced", median(shadow), median(gbuffer),
+                  median(visibility), median(lighting), median(total), tracer->deviceName().c_str());
+    }
+  }
+}
+
 }  // namespace
 
 void registerBench(CLI::App& app) {
@@ -323,7 +367,13 @@ void registerBench(CLI::App& app) {
   cmd->add_flag("--vulkan", options->vulkan,
                 "also trace on the Vulkan backend (default device): steady-state median after warm-up, pipeline "
                 "creation and first trace reported apart");
-  cmd->callback([options] { runBench(*options); });
+  cmd->add_flag("--frame", options->frame,
+                "instead, time the lit 1280x720 demo frame per stage (shadow maps and ray-traced shadows; CPU, and "
+                "Vulkan with --vulkan)");
+  cmd->callback([options] {
+    if (options->frame) runFrameBench(*options);
+    else runBench(*options);
+  });
 }
 
 }  // namespace vs::cli

@@ -1,4 +1,5 @@
-// voxshadow demo: writes the built-in demo world (real .vdb files and a scene), describes it and bakes it.
+// voxshadow demo: writes the built-in demo world (real .vdb files and a scene), describes it, bakes it and
+// renders it.
 #include <cstdio>
 
 #include "tools/commands.h"
@@ -28,6 +29,12 @@ void runDemo(const fs::path& dir, const std::string& backend) {
   bake.output = dir / "demo_shadows.exr";
   bake.preview = dir / "demo_shadows.png";
   runBake(bake);
+
+  RenderCommandOptions render;
+  render.scene = scene;
+  render.backend = backend;
+  render.output = dir / "demo.png";
+  runRender(render);
 }
 
 }  // namespace
@@ -38,7 +45,7 @@ void registerDemo(CLI::App& app) {
     std::string backend = BakeOptions{}.backend;
   };
   auto options = std::make_shared<Options>();
-  CLI::App* sub = app.add_subcommand("demo", "Write the demo world (.vdb assets + demo.json), describe it and bake it");
+  CLI::App* sub = app.add_subcommand("demo", "Write the demo world (.vdb assets + demo.json), describe it, bake its shadow maps and render it (demo.png)");
   sub->add_option("--out", options->dir, "Directory to write into (created if missing)")->capture_default_str();
   sub->add_option("--backend", options->backend, "Trace backend")
       ->check(CLI::IsMember({"cpu", "vulkan"}))

@@ -18,6 +18,7 @@ void registerDemo(CLI::App& app);  // voxshadow demo [--out DIR]
 void registerBake(CLI::App& app);  // voxshadow bake SCENE -o OUT.exr [--backend] [--device] [--preview] [--threads] [--stats]
 void registerBench(CLI::App& app); // voxshadow bench [--threads N] [--resolution R] [--reps K] [--vulkan]
 void registerConvert(CLI::App& app); // voxshadow convert IN.vox OUT.vdb [--frame F]
+void registerRender(CLI::App& app);  // voxshadow render SCENE -o OUT.png|OUT.exr [--backend] [--shadows] [--debug]
 
 struct BakeOptions {
   std::filesystem::path scene;
@@ -33,6 +34,22 @@ struct BakeOptions {
 // The bake shared by `bake` and `demo`. Preconditions: none; bad paths or scenes throw vs::Error(BadInput)
 // before any tracing, and a failure leaves no output file.
 void runBake(const BakeOptions& options);
+
+struct RenderCommandOptions {
+  std::filesystem::path scene;
+  std::filesystem::path output;  // .png or .exr
+  std::string backend = "vulkan";
+  std::string shadows = "maps";  // "maps" | "raytraced"
+  std::string debug;             // "", "cascades", "shadow", "normals", "layer=N"
+  int width = 0, height = 0;     // 0: the camera's
+  int threads = 0;
+  std::string device;
+  bool stats = false;
+};
+
+// The render shared by `render` and `demo`. Preconditions: none; bad options, paths and scenes throw
+// vs::Error(BadInput) before any tracing, and a failure leaves no output file.
+void runRender(const RenderCommandOptions& options);
 
 // Prints every Vulkan device (vs::listVulkanDevices order) with the limits the trace depends on, as text or
 // one JSON array. Throws vs::Error(Runtime) when Vulkan cannot start; prints an empty list when it has no device.

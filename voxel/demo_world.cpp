@@ -143,8 +143,8 @@ std::vector<std::string> writeDemoWorld(const std::filesystem::path& dir) {
   "ambient": { "color": [0.6, 0.7, 1.0], "intensity": 0.25 },
   "lights": [
     { "name": "sun", "type": "directional", "direction": [-0.4, -1.0, -0.3], "color": [1, 0.95, 0.9], "intensity": 3,
-      "shadow": { "resolution": 2048, "cascades": 3, "lambda": 0.7, "max_distance": 200,
-                  "filter": "pcf5", "depth_bias": 0.02, "normal_bias": 1.0 } },
+      "shadow": { "resolution": 2048, "cascades": 3, "lambda": 0.5, "max_distance": 200,
+                  "filter": "pcf5" } },
     { "name": "lamp", "type": "spot", "position": [0, 30, 0], "direction": [0.2, -1, 0.1], "range": 60,
       "inner_cone_deg": 20, "outer_cone_deg": 30, "color": [1, 0.8, 0.6], "intensity": 50,
       "shadow": { "resolution": 1024, "filter": "poisson16" } },

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cerrno>
 #include <cstring>
+#include <cstdint>
+#include <limits>
 #include <filesystem>
 #include <mutex>
 #include <unordered_map>
@@ -648,10 +650,12 @@ void visitValues(const GridT& grid, bool allValues, Pred&& pred, Fn&& fn) {
       if (it.isVoxelValue()) {
         fn(it.getCoord(), value);
       } else {
+        // 64-bit counters: a tile may end at the last coordinate (2^31 - 1), where an int's ++ overflows.
         openvdb::CoordBBox box = it.getBoundingBox();
-        for (int z = box.min().z(); z <= box.max().z(); ++z)
-          for (int y = box.min().y(); y <= box.max().y(); ++y)
-            for (int x = box.min().x(); x <= box.max().x(); ++x) fn(openvdb::Coord(x, y, z), value);
+        for (std::int64_t z = box.min().z(); z <= box.max().z(); ++z)
+          for (std::int64_t y = box.min().y(); y <= box.max().y(); ++y)
+            for (std::int64_t x = box.min().x(); x <= box.max().x(); ++x)
+              fn(openvdb::Coord(int(x), int(y), int(z)), value);
       }
     }
   };
@@ -665,10 +669,40 @@ struct GridLimits {
   std::int64_t regionSlots;
 };
 
+// The voxels of a box, or limit + 1 when they are more than limit. CoordBBox::volume() computes each side in
+// 32-bit ints: a damaged file's tile at the end of the coordinate range (max 2^31 - 1) overflowed there.
+std::uint64_t saturatedVolume(const openvdb::CoordBBox& box, std::uint64_t limit) {
+  std::uint64_t volume = 1;
+  for (int a = 0; a < 3; ++a) {
+    const std::int64_t side = std::int64_t(box.max()[a]) - std::int64_t(box.min()[a]) + 1;
+    if (side <= 0) return 0;
+    if (std::uint64_t(side) > (limit + 1) / volume) return limit + 1;
+    volume *= std::uint64_t(side);
+  }
+  return volume;
+}
+
 // Counts accepted voxels (tiles by volume) and their bounds, so that nothing is allocated for a grid whose
 // solid set is absurdly large.
 template <class GridT, class Pred>
 void guardSize(const GridT& grid, bool allValues, Pred&& pred, const GridLimits& limits, const std::string& file) {
+  // Node origins come from the file (the root's children and tiles by key, each leaf by its own stored
+  // origin, which need not agree with its parent's), and every coordinate below one is computed from it in
+  // 32-bit ints inside OpenVDB (a leaf's voxel coordinates, a node's bounding box). A damaged file's node near
+  // the end of the range overflowed there: such a node is refused before anything in it is visited.
+  auto refuseOverflowingNode = [&](const openvdb::Coord& origin, std::int64_t extent) {
+    for (int a = 0; a < 3; ++a) {
+      if (std::int64_t(origin[a]) + extent - 1 > std::int64_t(std::numeric_limits<std::int32_t>::max()))
+        throwBadInput(file + ": " + gridLabel(grid) + " has a node at (" + std::to_string(origin.x()) + ", " +
+                      std::to_string(origin.y()) + ", " + std::to_string(origin.z()) +
+                      ") that reaches beyond the 32-bit index coordinate range");
+    }
+  };
+  using RootT = typename GridT::TreeType::RootNodeType;
+  using LeafT = typename GridT::TreeType::LeafNodeType;
+  for (auto it = grid.tree().root().cbeginChildAll(); it; ++it)
+    refuseOverflowingNode(it.getCoord(), std::int64_t(RootT::ChildNodeType::DIM));
+  for (auto it = grid.tree().cbeginLeaf(); it; ++it) refuseOverflowingNode(it->origin(), std::int64_t(LeafT::DIM));
   const std::uint64_t limit = limits.solidVoxels;
   std::uint64_t count = 0;
   openvdb::CoordBBox bounds;
@@ -676,12 +710,12 @@ void guardSize(const GridT& grid, bool allValues, Pred&& pred, const GridLimits&
     for (; it; ++it) {
       if (!pred(*it)) continue;
       openvdb::CoordBBox box = it.isVoxelValue() ? openvdb::CoordBBox(it.getCoord(), it.getCoord()) : it.getBoundingBox();
-      count += box.volume();
-      bounds.expand(box);
+      count += saturatedVolume(box, limit);
       if (count > limit) {
         throwBadInput(file + ": " + gridLabel(grid) + " has more than " + std::to_string(limit) +
                       " solid voxels, more than the loader accepts");
       }
+      bounds.expand(box);
     }
   };
   if (allValues) run(grid.tree().cbeginValueAll());

@@ -1,0 +1,156 @@
+// deferred.cpp: shading records and the CPU lighting pass.
+#include "lighting/deferred.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <tbb/parallel_for.h>
+
+#include "voxel/error.h"
+
+namespace vs {
+
+namespace gpu {
+
+// The shading code of lighting/shared/shading.h, compiled as members of a struct whose members carry the
+// buffers' names: the C++ side of "one source, two compilers".
+struct CpuShading {
+  const float* shadowTexels;
+  const ShadeView* shadeViews;
+  const ShadeLight* shadeLights;
+  const uint* rayVisibility;
+  float* shadowTerms;
+#include "lighting/shared/shading.h"
+};
+
+}  // namespace gpu
+
+namespace {
+
+int filterCode(ShadowFilter f) {
+  switch (f) {
+    case ShadowFilter::Hard: return gpu::VS_FILTER_HARD;
+    case ShadowFilter::Pcf3: return gpu::VS_FILTER_PCF3;
+    case ShadowFilter::Pcf5: return gpu::VS_FILTER_PCF5;
+    case ShadowFilter::Poisson16: return gpu::VS_FILTER_POISSON16;
+    case ShadowFilter::Pcss: return gpu::VS_FILTER_PCSS;
+  }
+  return gpu::VS_FILTER_HARD;
+}
+
+int lightCode(LightType t) {
+  switch (t) {
+    case LightType::Directional: return gpu::VS_LIGHT_DIRECTIONAL;
+    case LightType::Spot: return gpu::VS_LIGHT_SPOT;
+    case LightType::Point: return gpu::VS_LIGHT_POINT;
+  }
+  return gpu::VS_LIGHT_DIRECTIONAL;
+}
+
+}  // namespace
+
+ShadeInputs makeShadeInputs(const SceneDesc& scene, std::span<const LightView> views,
+                            std::span<const ShadowLayer> layers, bool raytraced) {
+  if (layers.size() != views.size()) throwBadInput("lighting: " + std::to_string(layers.size()) + " layers for " +
+                                                   std::to_string(views.size()) + " views");
+  ShadeInputs in;
+  std::size_t texels = 0;
+  for (const ShadowLayer& layer : layers) texels += layer.texels.size();
+  in.shadowTexels.reserve(texels);
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    const LightView& v = views[i];
+    const ShadowLayer& layer = layers[i];
+    if (layer.width != v.resolution || layer.height != v.resolution)
+      throwBadInput("lighting: layer " + v.name + " is " + std::to_string(layer.width) + "x" +
+                    std::to_string(layer.height) + ", its view " + std::to_string(v.resolution) + " square");
+    gpu::ShadeView sv{};
+    sv.eyeToClip = glm::mat4(v.eyeToClip);
+    sv.eye = glm::vec4(glm::vec3(v.eye), float(v.texelWorld));
+    // World units per unit of encoded depth: an orthographic view's NDC depth is linear in the distance along
+    // the light, at the rate of its projection's z row.
+    double depthScale = 1.0;
+    if (v.encoding == gpu::VS_ENCODING_NDC_DEPTH) {
+      const glm::dvec3 row(v.eyeToClip[0][2], v.eyeToClip[1][2], v.eyeToClip[2][2]);
+      depthScale = 1.0 / glm::length(row);
+    }
+    sv.split = glm::vec4(float(v.splitNear), float(v.splitFar), v.range, float(depthScale));
+    sv.info = glm::ivec4(int(in.shadowTexels.size()), v.resolution, v.encoding, v.cascade);
+    in.views.push_back(sv);
+    in.shadowTexels.insert(in.shadowTexels.end(), layer.texels.begin(), layer.texels.end());
+  }
+  for (std::size_t li = 0; li < scene.lights.size(); ++li) {
+    const LightDesc& l = scene.lights[li];
+    gpu::ShadeLight sl{};
+    sl.color = glm::vec4(l.color * l.intensity, 0.0f);
+    sl.position = glm::vec4(l.position, l.range);
+    sl.direction = glm::vec4(l.direction, float(std::cos(glm::radians(double(l.outerConeDeg)))));
+    int first = 0, count = 0;
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      if (views[i].lightIndex != int(li)) continue;
+      if (count == 0) first = int(i);
+      ++count;
+    }
+    float contact = 0.0f;
+    if (l.shadow) {
+      sl.bias = glm::vec4(l.shadow->depthBias, l.shadow->normalBias, l.shadow->slopeBias, l.shadow->lightSize);
+      contact = l.shadow->contactShadow;
+      sl.extra = glm::vec4(float(std::cos(glm::radians(double(l.innerConeDeg)))), contact, l.shadow->cascadeBlend, 0.0f);
+      sl.info = glm::ivec4(lightCode(l.type), count > 0 ? filterCode(l.shadow->filter) : gpu::VS_FILTER_NONE, first, count);
+    } else {
+      sl.extra = glm::vec4(float(std::cos(glm::radians(double(l.innerConeDeg)))), 0.0f, 0.0f, 0.0f);
+      sl.info = glm::ivec4(lightCode(l.type), gpu::VS_FILTER_NONE, 0, 0);
+    }
+    in.lights.push_back(sl);
+    // A light without shadow casts none, in ray-traced shadows too.
+    in.rayLength.push_back(!l.shadow ? 0.0f : raytraced ? -1.0f : contact);
+  }
+  return in;
+}
+
+gpu::ShadePush makeShadePush(const SceneDesc& scene, int width, int height, int mode, bool raytraced) {
+  gpu::ShadePush push{};
+  push.ambient = glm::vec4(scene.ambient.color * scene.ambient.intensity, 0.0f);
+  // A sky of the ambient light's hue, at a brightness that reads as sky beside lit surfaces.
+  const glm::vec3 hue = scene.ambient.color / std::max(1e-6f, std::max(scene.ambient.color.x,
+                                                       std::max(scene.ambient.color.y, scene.ambient.color.z)));
+  push.sky = glm::vec4(hue * 0.75f, 0.0f);
+  push.size = glm::ivec4(width, height, int(scene.lights.size()), mode);
+  push.flags = glm::ivec4(raytraced ? 1 : 0, 0, 0, 0);
+  return push;
+}
+
+ShadeOutput shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
+                       std::span<const std::uint32_t> rayVisibility) {
+  const std::size_t pixels = std::size_t(push.size.x) * std::size_t(push.size.y);
+  const std::size_t lights = inputs.lights.size();
+  if (gbuffer.texels.size() != pixels || std::size_t(push.size.z) != lights)
+    throwBadInput("lighting: the G-buffer, the push block and the lights disagree on sizes");
+  // Lights that need no ray read a clear answer.
+  std::vector<std::uint32_t> clear;
+  if (rayVisibility.empty()) {
+    clear.assign(pixels * lights, 1u);
+    rayVisibility = clear;
+  }
+  if (rayVisibility.size() != pixels * lights) throwBadInput("lighting: one visibility answer per pixel and light expected");
+  ShadeOutput out;
+  out.color.resize(pixels);
+  out.shadowTerms.resize(pixels * lights);
+  gpu::CpuShading shading{inputs.shadowTexels.data(), inputs.views.data(), inputs.lights.data(), rayVisibility.data(),
+                          out.shadowTerms.data()};
+  tbb::parallel_for(0, push.size.y, [&](int y) {
+    for (int x = 0; x < push.size.x; ++x) {
+      const int pixel = y * push.size.x + x;
+      out.color[std::size_t(pixel)] = shading.vsShadePixel(push, pixel, gbuffer.texels[std::size_t(pixel)]);
+    }
+  });
+  return out;
+}
+
+float shadowTermAt(const ShadeInputs& inputs, std::size_t light, const gpu::GBufferTexel& texel,
+                   std::uint32_t visibility, bool raytraced) {
+  if (light >= inputs.lights.size()) throwBadInput("lighting: no light " + std::to_string(light));
+  gpu::CpuShading shading{inputs.shadowTexels.data(), inputs.views.data(), inputs.lights.data(), nullptr, nullptr};
+  return shading.vsShadowTerm(inputs.lights[light], texel, visibility, raytraced);
+}
+
+}  // namespace vs

@@ -1,0 +1,56 @@
+// deferred.h: the deferred lighting pass (DESIGN.md §7): the shading records built from a scene's lights and
+// traced shadow layers, and the pass itself on the CPU, running lighting/shared/shading.h as C++ (the
+// Vulkan pass runs the same source as GLSL: lighting/vulkan_lighting.h).
+#ifndef VOXSHADOW_DEFERRED_H
+#define VOXSHADOW_DEFERRED_H
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "compute/cpu/cpu_tracer.h"
+#include "lighting/gbuffer.h"
+#include "lighting/light_views.h"
+#include "lighting/scene_file.h"
+#include "lighting/shared/shading_layout.h"
+
+namespace vs {
+
+// What the pass reads besides the G-buffer: one ShadeLight per scene light (scene order), one ShadeView per
+// traced layer, and every layer's texels one after another.
+struct ShadeInputs {
+  std::vector<gpu::ShadeLight> lights;
+  std::vector<gpu::ShadeView> views;
+  std::vector<float> shadowTexels;
+  // Per light: the length of its visibility rays (0: none needed; a contact-shadow length; or, for
+  // ray-traced shadows, unbounded as -1).
+  std::vector<float> rayLength;
+};
+
+// Preconditions: views as buildLightViews gave them for scene, layers[i] traced from views[i].
+// raytraced: every light gets a whole visibility ray instead of its shadow maps.
+ShadeInputs makeShadeInputs(const SceneDesc& scene, std::span<const LightView> views,
+                            std::span<const ShadowLayer> layers, bool raytraced);
+
+// The push block of a frame: ambient, sky colour, size, light count, mode (VS_SHADE_*) and shadow source.
+gpu::ShadePush makeShadePush(const SceneDesc& scene, int width, int height, int mode, bool raytraced);
+
+struct ShadeOutput {
+  std::vector<glm::vec4> color;    // per pixel, linear
+  std::vector<float> shadowTerms;  // per pixel and light (pixel * lights + light)
+};
+
+// The pass on the CPU (TBB over rows). rayVisibility: per pixel and light, 1 where its visibility ray is clear
+// (traceAny's answers inverted), or empty when no light needs rays. Preconditions: gbuffer and push agree on
+// the size; inputs from makeShadeInputs for the same lights and shadow source as the push block.
+ShadeOutput shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
+                       std::span<const std::uint32_t> rayVisibility);
+
+// The shadow term of light `light` at one G-buffer texel, as the pass computes it (for tests and tools that
+// probe fixed world points). visibility: that pixel's ray answer (1: clear).
+float shadowTermAt(const ShadeInputs& inputs, std::size_t light, const gpu::GBufferTexel& texel,
+                   std::uint32_t visibility = 1u, bool raytraced = false);
+
+}  // namespace vs
+
+#endif

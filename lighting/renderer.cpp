@@ -1,0 +1,104 @@
+// renderer.cpp: the frame: trace shadow layers, trace the G-buffer, trace visibility rays, shade.
+#include "lighting/renderer.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "lighting/vulkan_lighting.h"
+#include "voxel/error.h"
+
+namespace vs {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+int shadeMode(DebugView d) {
+  switch (d) {
+    case DebugView::Cascades: return gpu::VS_SHADE_DEBUG_CASCADES;
+    case DebugView::Shadow: return gpu::VS_SHADE_DEBUG_SHADOW;
+    case DebugView::Normals: return gpu::VS_SHADE_DEBUG_NORMALS;
+    default: return gpu::VS_SHADE_LIT;
+  }
+}
+
+}  // namespace
+
+struct FrameRenderer::VulkanPass {
+  explicit VulkanPass(VulkanContext& context) : lighting(context) {}
+  VulkanLighting lighting;
+};
+
+FrameRenderer::FrameRenderer(Tracer& tracer) : tracer_(tracer) {}
+FrameRenderer::~FrameRenderer() = default;
+
+RenderedFrame FrameRenderer::render(const Scene& scene, const RenderOptions& options) {
+  const SceneDesc& desc = scene.desc();
+  if (!desc.camera) throwBadInput(desc.file.string() + ": camera: a scene needs a camera to be rendered");
+  const CameraFrame camera = cameraFrame(*desc.camera, options.width, options.height);
+  const bool raytraced = options.shadows == ShadowSource::Raytraced;
+
+  RenderedFrame frame;
+  frame.width = camera.width;
+  frame.height = camera.height;
+  for (const LightDesc& l : desc.lights) frame.lightNames.push_back(l.name);
+
+  // Shadow layers: ray-traced shadows need none (the layer debug view still does).
+  auto t0 = Clock::now();
+  const bool needMaps = !raytraced || options.debug == DebugView::Layer;
+  frame.views = needMaps ? buildLightViews(desc, scene.worldBounds(), &camera) : std::vector<LightView>{};
+  if (options.debug == DebugView::Layer && (options.debugLayer < 0 || std::size_t(options.debugLayer) >= frame.views.size()))
+    throwBadInput("--debug layer=" + std::to_string(options.debugLayer) + ": the scene has " +
+                  std::to_string(frame.views.size()) + " shadow layers (0.." +
+                  std::to_string(int(frame.views.size()) - 1) + ")");
+  std::vector<gpu::TraceView> traceViews;
+  for (const LightView& v : frame.views) traceViews.push_back(v.trace);
+  layers_.resize(traceViews.size());
+  if (!traceViews.empty()) tracer_.traceShadow(traceViews, layers_);
+  frame.timings.shadowMs = msSince(t0);
+
+  t0 = Clock::now();
+  frame.gbuffer = traceGBuffer(scene, camera, tracer_);
+  frame.timings.gbufferMs = msSince(t0);
+
+  const ShadeInputs inputs = makeShadeInputs(desc, frame.views, layers_, raytraced);
+  t0 = Clock::now();
+  std::vector<std::uint32_t> visible;
+  if (std::any_of(inputs.rayLength.begin(), inputs.rayLength.end(), [](float l) { return l != 0.0f; })) {
+    std::vector<gpu::TraceRay> rays = visibilityRays(frame.gbuffer, inputs.lights, inputs.rayLength, scene.worldBounds());
+    visible.resize(rays.size());
+    tracer_.traceAny(rays, visible);
+    for (std::uint32_t& v : visible) v = v == 0u ? 1u : 0u;
+  }
+  frame.timings.visibilityMs = msSince(t0);
+
+  t0 = Clock::now();
+  const gpu::ShadePush push = makeShadePush(desc, camera.width, camera.height, shadeMode(options.debug), raytraced);
+  ShadeOutput shaded;
+  if (VulkanTracer* vulkan = tracer_.vulkan()) {
+    if (!vulkan_) vulkan_ = std::make_unique<VulkanPass>(vulkan->context());
+    shaded = vulkan_->lighting.shade(inputs, push, frame.gbuffer, visible);
+  } else {
+    shaded = shadeOnCpu(inputs, push, frame.gbuffer, visible);
+  }
+  frame.color = std::move(shaded.color);
+  frame.shadowTerms = std::move(shaded.shadowTerms);
+  frame.timings.lightingMs = msSince(t0);
+
+  if (options.debug == DebugView::Layer) {
+    // The layer itself, scaled to the frame: depth as grey (near dark), misses white.
+    const LightView& v = frame.views[std::size_t(options.debugLayer)];
+    const ShadowLayer& layer = layers_[std::size_t(options.debugLayer)];
+    for (int y = 0; y < frame.height; ++y)
+      for (int x = 0; x < frame.width; ++x) {
+        const int lx = std::min(layer.width - 1, x * layer.width / frame.width);
+        const int ly = std::min(layer.height - 1, y * layer.height / frame.height);
+        const float d = layer.texels[std::size_t(ly) * std::size_t(layer.width) + std::size_t(lx)] / v.range;
+        frame.color[std::size_t(y) * std::size_t(frame.width) + std::size_t(x)] = glm::vec4(glm::vec3(d), 1.0f);
+      }
+  }
+  return frame;
+}
+
+}  // namespace vs

@@ -1,0 +1,70 @@
+// renderer.h: one lit frame of a scene (DESIGN.md §7): shadow layers, G-buffer, visibility rays and the
+// deferred lighting pass, on either backend. A FrameRenderer lives across frames: it keeps the layers and
+// buffers of the last frame and re-traces only what the frame needs.
+#ifndef VOXSHADOW_RENDERER_H
+#define VOXSHADOW_RENDERER_H
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "compute/tracer.h"
+#include "lighting/deferred.h"
+#include "lighting/gbuffer.h"
+#include "lighting/scene.h"
+
+namespace vs {
+
+enum class ShadowSource { Maps, Raytraced };
+enum class DebugView { None, Cascades, Shadow, Normals, Layer };
+
+struct RenderOptions {
+  int width = 0, height = 0;  // 0: the scene camera's
+  ShadowSource shadows = ShadowSource::Maps;
+  DebugView debug = DebugView::None;
+  int debugLayer = 0;  // DebugView::Layer: which shadow layer (light view order)
+};
+
+struct RenderTimings {
+  double shadowMs = 0.0;      // shadow layers
+  double gbufferMs = 0.0;     // primary rays and their resolution
+  double visibilityMs = 0.0;  // ray-traced or contact shadow rays
+  double lightingMs = 0.0;    // the deferred pass
+};
+
+struct RenderedFrame {
+  int width = 0, height = 0;
+  std::vector<glm::vec4> color;    // linear HDR, row 0 at the top
+  GBuffer gbuffer;
+  std::vector<float> shadowTerms;  // per pixel and light
+  std::vector<std::string> lightNames;
+  std::vector<LightView> views;    // the frame's shadow views (none with ray-traced shadows)
+  RenderTimings timings;
+};
+
+class FrameRenderer {
+ public:
+  // `tracer` traces every ray kind; on the Vulkan backend the lighting pass also runs on its device.
+  // Preconditions: tracer outlives the renderer.
+  explicit FrameRenderer(Tracer& tracer);
+  ~FrameRenderer();
+
+  // Renders the scene from its camera. Preconditions: the scene has a camera (else vs::Error(BadInput)),
+  // tracer.setScene(scene.data()) was called after its last voxel change; options.debugLayer names an
+  // existing layer for DebugView::Layer (else vs::Error(BadInput)).
+  RenderedFrame render(const Scene& scene, const RenderOptions& options);
+
+  // The shadow layers of the last frame (light view order), reused by the next one.
+  const std::vector<ShadowLayer>& layers() const { return layers_; }
+
+ private:
+  Tracer& tracer_;
+  std::vector<ShadowLayer> layers_;
+  struct VulkanPass;
+  std::unique_ptr<VulkanPass> vulkan_;
+};
+
+}  // namespace vs
+
+#endif

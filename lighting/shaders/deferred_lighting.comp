@@ -1,0 +1,31 @@
+// deferred_lighting.comp: the deferred lighting pass (DESIGN.md §7), one invocation per pixel, running the
+// arithmetic of lighting/shared/shading.h, which the CPU pass (lighting/deferred.cpp) compiles as C++.
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#define VS_GLSL 1
+#include "voxel/portable.h"
+#include "compute/shared/trace_rays.h"
+#include "compute/shared/trace_view.h"
+#include "lighting/shared/shading_layout.h"
+#include "lighting/shared/lighting_interface.h"
+
+layout(local_size_x = VS_LIGHTING_GROUP_WIDTH, local_size_y = VS_LIGHTING_GROUP_HEIGHT, local_size_z = 1) in;
+
+layout(std430, set = 0, binding = VS_LIGHTING_BINDING_GBUFFER) readonly buffer GBufferBlock { GBufferTexel gbuffer[]; };
+layout(std430, set = 0, binding = VS_LIGHTING_BINDING_LIGHTS) readonly buffer LightBlock { ShadeLight shadeLights[]; };
+layout(std430, set = 0, binding = VS_LIGHTING_BINDING_VIEWS) readonly buffer ViewBlock { ShadeView shadeViews[]; };
+layout(std430, set = 0, binding = VS_LIGHTING_BINDING_SHADOW_TEXELS) readonly buffer TexelBlock { float shadowTexels[]; };
+layout(std430, set = 0, binding = VS_LIGHTING_BINDING_VISIBILITY) readonly buffer VisibilityBlock { uint rayVisibility[]; };
+layout(std430, set = 0, binding = VS_LIGHTING_BINDING_SHADOW_TERMS) writeonly buffer TermBlock { float shadowTerms[]; };
+layout(std430, set = 0, binding = VS_LIGHTING_BINDING_COLOR) writeonly buffer ColorBlock { vec4 color[]; };
+
+layout(push_constant) uniform PushBlock { ShadePush push; };
+
+#include "lighting/shared/shading.h"
+
+void main() {
+  ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+  if (p.x >= push.size.x || p.y >= push.size.y) return;
+  int pixel = p.y * push.size.x + p.x;
+  color[pixel] = vsShadePixel(push, pixel, gbuffer[pixel]);
+}

@@ -1,0 +1,294 @@
+// shading.h: the deferred lighting arithmetic (DESIGN.md §7), one source compiled as GLSL (the lighting
+// shader, lighting/shaders/deferred_lighting.comp) and as C++ (lighting/deferred.cpp), so that the CPU path
+// shades with exactly the shader's steps: shadow lookup and filters, biases, cascade choice and blending,
+// light falloff, the lit colour.
+//
+// The includer provides, as arrays or buffer members of these names:
+//   shadowTexels[i] (float): every shadow layer, row by row, one after another (ShadeView.info.x)
+//   shadeViews[i] (ShadeView), shadeLights[i] (ShadeLight)
+//   rayVisibility[i] (uint): per pixel and light (pixel * lightCount + light), 1 where the exact visibility
+//     ray toward the light (its whole length for ray-traced shadows, the contact length otherwise) is clear
+//   shadowTerms[i] (float, written): per pixel and light, the shadow term vsShadePixel used
+// C++ includes this inside a struct that holds those members (lighting/deferred.cpp).
+#ifndef VOXSHADOW_SHADING_H
+#define VOXSHADOW_SHADING_H
+
+// A world-space hash of the receiver's texel: the disc filters' rotation is a property of the surface point,
+// not of the pixel, so the noise pattern stays on the surface as the camera moves.
+uint vsHashCell(ivec3 c) {
+  uint h = uint(c.x) * 73856093u ^ uint(c.y) * 19349663u ^ uint(c.z) * 83492791u;
+  h ^= h >> 13u;
+  h *= 0x5bd1e995u;
+  h ^= h >> 15u;
+  return h;
+}
+
+// The rotation (cos, sin) of the disc filters at world point p, for texels of world size texel.
+vec2 vsDiscRotation(vec3 p, float texel) {
+  uint h = vsHashCell(ivec3(floor(p / texel)));
+  float angle = float(h & 65535u) * (6.2831853f / 65536.0f);
+  return vec2(cos(angle), sin(angle));
+}
+
+// Sample i of 16 of a disc of unit radius, evenly spread (a Vogel spiral: blue-noise-like, no table).
+vec2 vsDiscSample(int i, vec2 rotation) {
+  float r = sqrt((float(i) + 0.5f) / 16.0f);
+  float a = float(i) * 2.3999632f;
+  vec2 d = vec2(cos(a), sin(a)) * r;
+  return vec2(d.x * rotation.x - d.y * rotation.y, d.x * rotation.y + d.y * rotation.x);
+}
+
+// p projected into a view: texel coordinates (texel centres at .5) and the receiver's depth in the layer's
+// encoding. False behind a perspective view's eye.
+bool vsProjectToView(VS_IN(ShadeView) view, vec3 p, VS_OUT(vec2) texel, VS_OUT(float) depth) {
+  vec3 rel = p - vec3(view.eye);
+  vec4 clip = view.eyeToClip * vec4(rel, 1.0f);
+  if (!(clip.w > 0.0f)) return false;
+  vec3 ndc = vec3(clip) / clip.w;
+  texel = (vec2(ndc) * 0.5f + vec2(0.5f)) * float(view.info.y);
+  depth = view.info.z == VS_ENCODING_NDC_DEPTH ? ndc.z : length(rel);
+  return true;
+}
+
+// Whether a kernel of `margin` texels around `texel` stays inside the layer (and the depth inside a
+// directional view's range).
+bool vsInsideView(VS_IN(ShadeView) view, vec2 texel, float depth, float margin) {
+  float w = float(view.info.y);
+  bool lateral = texel.x >= margin && texel.y >= margin && texel.x <= w - margin && texel.y <= w - margin;
+  bool inDepth = view.info.z != VS_ENCODING_NDC_DEPTH || (depth >= 0.0f && depth <= 1.0f);
+  return lateral && inDepth;
+}
+
+// The stored depth of texel t, clamped to the layer.
+float vsStoredDepth(VS_IN(ShadeView) view, ivec2 t) {
+  int w = view.info.y;
+  ivec2 c = clamp(t, ivec2(0), ivec2(w - 1));
+  return shadowTexels[view.info.x + c.y * w + c.x];
+}
+
+// 1 where the receiver at `depth` is in front of (or at) the stored depth of texel t.
+float vsCompare(VS_IN(ShadeView) view, ivec2 t, float depth) {
+  return vsStoredDepth(view, t) < depth ? 0.0f : 1.0f;
+}
+
+float vsFilterBox(VS_IN(ShadeView) view, vec2 texel, float depth, int radius) {
+  ivec2 centre = ivec2(floor(texel));
+  float sum = 0.0f;
+  for (int dy = -radius; dy <= radius; ++dy)
+    for (int dx = -radius; dx <= radius; ++dx) sum += vsCompare(view, centre + ivec2(dx, dy), depth);
+  float side = float(2 * radius + 1);
+  return sum / (side * side);
+}
+
+float vsFilterDisc(VS_IN(ShadeView) view, vec2 texel, float depth, vec2 rotation, float radius) {
+  float sum = 0.0f;
+  for (int i = 0; i < 16; ++i) sum += vsCompare(view, ivec2(floor(texel + vsDiscSample(i, rotation) * radius)), depth);
+  return sum / 16.0f;
+}
+
+// The world size of a texel of `view` at receiver lightDistance `lightDistance` (the lightDistance matters for perspective
+// views only).
+float vsTexelWorld(VS_IN(ShadeView) view, float lightDistance) {
+  return view.info.z == VS_ENCODING_NDC_DEPTH ? view.eye.w : view.eye.w * lightDistance;
+}
+
+// Percentage-closer soft shadows: the blockers' mean lightDistance from the emitter over a search disc, then a
+// disc whose radius is the penumbra that a lightSize-wide emitter gives at that lightDistance ratio. Distances are
+// world units from the emitter (a directional light's emitter lies on its view's near plane).
+float vsFilterPcss(VS_IN(ShadeView) view, vec2 texel, float depth, vec2 rotation, float lightSize, float texelWorld) {
+  float scale = view.split.w;
+  float receiver = depth * scale;
+  float search = clamp(0.5f * lightSize / texelWorld, 1.0f, VS_PCSS_MAX_RADIUS);
+  float blockers = 0.0f;
+  float count = 0.0f;
+  for (int i = 0; i < 16; ++i) {
+    float stored = vsStoredDepth(view, ivec2(floor(texel + vsDiscSample(i, rotation) * search)));
+    if (stored < depth) {
+      blockers += stored * scale;
+      count += 1.0f;
+    }
+  }
+  if (count == 0.0f) return 1.0f;
+  float blocker = max(blockers / count, 1e-4f * scale);
+  float penumbra = lightSize * (receiver - blocker) / blocker;
+  float radius = clamp(0.5f * penumbra / texelWorld, 1.0f, VS_PCSS_MAX_RADIUS);
+  return vsFilterDisc(view, texel, depth, rotation, radius);
+}
+
+// How far (texels) a filter reads from its centre: the lateral check's margin.
+float vsFilterReach(int kind) {
+  if (kind == VS_FILTER_PCF3) return 1.5f;
+  if (kind == VS_FILTER_PCF5) return 2.5f;
+  if (kind == VS_FILTER_POISSON16) return VS_POISSON_RADIUS + 0.5f;
+  if (kind == VS_FILTER_PCSS) return VS_PCSS_MAX_RADIUS + 0.5f;
+  return 0.5f;
+}
+
+// The receiver moved off its surface by the light's biases, for one view (texel sizes differ per view):
+// along N by the normal offset, along L by the constant and the slope-scaled bias.
+vec3 vsBiasedReceiver(VS_IN(ShadeLight) light, VS_IN(ShadeView) view, vec3 p, vec3 n, vec3 toLight, float nDotL,
+                      float lightDistance) {
+  float texel = vsTexelWorld(view, lightDistance);
+  float alongLight = light.bias.x + light.bias.z * texel / max(nDotL, VS_MIN_SLOPE_COSINE);
+  return p + n * (light.bias.y * texel) + toLight * alongLight;
+}
+
+// The filtered shadow-map term of one view, or -1 where the view does not cover the receiver. lateral: the
+// kernel must lie inside the layer (cascades, spot views); cube faces leave it out, since a receiver near a
+// face's edge is as near the edge of its neighbour, and read clamped texels instead.
+float vsViewShadow(VS_IN(ShadeLight) light, int viewIndex, vec3 p, vec3 n, vec3 toLight, float nDotL,
+                   float lightDistance, bool lateral) {
+  ShadeView view = shadeViews[viewIndex];
+  vec3 receiver = vsBiasedReceiver(light, view, p, n, toLight, nDotL, lightDistance);
+  vec2 texel;
+  float depth;
+  int kind = light.info.y;
+  if (!vsProjectToView(view, receiver, texel, depth)) return -1.0f;
+  if (lateral && !vsInsideView(view, texel, depth, vsFilterReach(kind))) return -1.0f;
+  float texelWorld = vsTexelWorld(view, lightDistance);
+  if (kind == VS_FILTER_HARD) return vsCompare(view, ivec2(floor(texel)), depth);
+  if (kind == VS_FILTER_PCF3) return vsFilterBox(view, texel, depth, 1);
+  if (kind == VS_FILTER_PCF5) return vsFilterBox(view, texel, depth, 2);
+  vec2 rotation = vsDiscRotation(p, texelWorld);
+  if (kind == VS_FILTER_POISSON16) return vsFilterDisc(view, texel, depth, rotation, VS_POISSON_RADIUS);
+  return vsFilterPcss(view, texel, depth, rotation, light.bias.w, texelWorld);
+}
+
+// The shadow-map term of a light at a receiver (1 lit, 0 shadowed). Cascades: the first whose depth range
+// holds the pixel's view depth and whose layer holds the kernel; in the blend band at its far end it mixes
+// with the next one, and the last one fades to lit. A receiver outside every view is lit.
+float vsShadowMapTerm(VS_IN(ShadeLight) light, vec3 p, vec3 n, vec3 toLight, float nDotL, float lightDistance,
+                      float viewDepth) {
+  int first = light.info.z;
+  int count = light.info.w;
+  if (light.info.x == VS_LIGHT_POINT) {
+    // The cube face of the major axis, in layer order +x, -x, +y, -y, +z, -z.
+    vec3 d = p - vec3(light.position);
+    vec3 a = abs(d);
+    int face = a.x >= a.y && a.x >= a.z ? (d.x >= 0.0f ? 0 : 1) : (a.y >= a.z ? (d.y >= 0.0f ? 2 : 3) : (d.z >= 0.0f ? 4 : 5));
+    float s = vsViewShadow(light, first + face, p, n, toLight, nDotL, lightDistance, false);
+    return s < 0.0f ? 1.0f : s;
+  }
+  for (int c = 0; c < count; ++c) {
+    ShadeView view = shadeViews[first + c];
+    bool cascade = view.info.w >= 0;
+    if (cascade && !(viewDepth >= view.split.x && viewDepth < view.split.y)) continue;
+    float s = vsViewShadow(light, first + c, p, n, toLight, nDotL, lightDistance, true);
+    if (s < 0.0f) continue;
+    if (!cascade) return s;
+    float band = light.extra.z * (view.split.y - view.split.x);
+    if (band > 0.0f && viewDepth > view.split.y - band) {
+      float t = (viewDepth - (view.split.y - band)) / band;
+      float next = 1.0f;
+      if (c + 1 < count) {
+        next = vsViewShadow(light, first + c + 1, p, n, toLight, nDotL, lightDistance, true);
+        if (next < 0.0f) next = s;
+      }
+      s = mix(s, next, t);
+    }
+    return s;
+  }
+  return 1.0f;
+}
+
+// Which cascade of the light the receiver's shadow comes from (-1: none), for the cascade debug view.
+int vsCascadeOf(VS_IN(ShadeLight) light, vec3 p, float viewDepth) {
+  for (int c = 0; c < light.info.w; ++c) {
+    ShadeView view = shadeViews[light.info.z + c];
+    if (view.info.w < 0 || !(viewDepth >= view.split.x && viewDepth < view.split.y)) continue;
+    vec2 texel;
+    float depth;
+    if (vsProjectToView(view, p, texel, depth) && vsInsideView(view, texel, depth, vsFilterReach(light.info.y)))
+      return c;
+  }
+  return -1;
+}
+
+// The direction toward the light, the lightDistance to it (0 for directional lights) and its attenuation
+// (spot cone and range falloff; 1 for directional lights).
+float vsLightGeometry(VS_IN(ShadeLight) light, vec3 p, VS_OUT(vec3) toLight, VS_OUT(float) lightDistance) {
+  if (light.info.x == VS_LIGHT_DIRECTIONAL) {
+    toLight = -vec3(light.direction);
+    lightDistance = 0.0f;
+    return 1.0f;
+  }
+  vec3 d = vec3(light.position) - p;
+  lightDistance = length(d);
+  toLight = lightDistance > 0.0f ? d / lightDistance : vec3(0.0f, 1.0f, 0.0f);
+  float range = light.position.w;
+  float ratio = lightDistance / range;
+  float window = clamp(1.0f - ratio * ratio * ratio * ratio, 0.0f, 1.0f);
+  float attenuation = window * window / max(lightDistance * lightDistance, 1e-4f);
+  if (light.info.x == VS_LIGHT_SPOT) {
+    float cosAngle = dot(-toLight, vec3(light.direction));
+    float cosOuter = light.direction.w;
+    float cosInner = light.extra.x;
+    float cone = cosInner - cosOuter > 1e-6f ? smoothstep(cosOuter, cosInner, cosAngle) : (cosAngle >= cosOuter ? 1.0f : 0.0f);
+    attenuation *= cone;
+  }
+  return attenuation;
+}
+
+// The shadow term of light `l` at G-buffer texel g (1 lit, 0 shadowed): the shadow maps, times the contact
+// ray where the light has one, or the exact ray alone (raytraced). `visibility`: rayVisibility's answer for
+// this pixel and light. Surfaces facing away from the light are in their own shadow (0).
+float vsShadowTerm(VS_IN(ShadeLight) light, VS_IN(GBufferTexel) g, uint visibility, bool raytraced) {
+  vec3 p = vec3(g.position);
+  vec3 n = vec3(g.normal);
+  vec3 toLight;
+  float lightDistance;
+  vsLightGeometry(light, p, toLight, lightDistance);
+  float nDotL = dot(n, toLight);
+  if (!(nDotL > 0.0f)) return 0.0f;
+  if (raytraced) return visibility != 0u ? 1.0f : 0.0f;
+  float s = light.info.y == VS_FILTER_NONE ? 1.0f : vsShadowMapTerm(light, p, n, toLight, nDotL, lightDistance, g.position.w);
+  if (light.extra.y > 0.0f && visibility == 0u) s = 0.0f;
+  return s;
+}
+
+// What light `l` adds to texel g, its shadow term given.
+vec3 vsLightRadiance(VS_IN(ShadeLight) light, VS_IN(GBufferTexel) g, float shadow) {
+  vec3 toLight;
+  float lightDistance;
+  float attenuation = vsLightGeometry(light, vec3(g.position), toLight, lightDistance);
+  float nDotL = max(dot(vec3(g.normal), toLight), 0.0f);
+  return vec3(light.color) * (nDotL * attenuation * shadow);
+}
+
+// The colour of pixel `pixel` (G-buffer texel g) in the push block's mode, writing each light's shadow term
+// to shadowTerms. push.flags.x: the exact visibility rays replace the shadow maps.
+vec4 vsShadePixel(VS_IN(ShadePush) push, int pixel, VS_IN(GBufferTexel) g) {
+  bool raytraced = push.flags.x != 0;
+  int lightCount = push.size.z;
+  int mode = push.size.w;
+  if (g.info.w == 0u) {
+    for (int l = 0; l < lightCount; ++l) shadowTerms[pixel * lightCount + l] = 1.0f;
+    return vec4(vec3(push.sky), 0.0f);
+  }
+  vec3 radiance = vec3(push.ambient);
+  float shadowSum = 0.0f;
+  int cascade = -1;
+  for (int l = 0; l < lightCount; ++l) {
+    ShadeLight light = shadeLights[l];
+    float s = vsShadowTerm(light, g, rayVisibility[pixel * lightCount + l], raytraced);
+    shadowTerms[pixel * lightCount + l] = s;
+    shadowSum += s;
+    radiance += vsLightRadiance(light, g, s);
+    if (cascade < 0 && light.info.x == VS_LIGHT_DIRECTIONAL && light.info.y != VS_FILTER_NONE)
+      cascade = vsCascadeOf(light, vec3(g.position), g.position.w);
+  }
+  vec3 lit = vec3(g.albedo) * radiance;
+  if (mode == VS_SHADE_DEBUG_NORMALS) return vec4(vec3(g.normal) * 0.5f + vec3(0.5f), 1.0f);
+  if (mode == VS_SHADE_DEBUG_SHADOW) return vec4(vec3(lightCount > 0 ? shadowSum / float(lightCount) : 1.0f), 1.0f);
+  if (mode == VS_SHADE_DEBUG_CASCADES) {
+    vec3 tint = vec3(1.0f);
+    if (cascade == 0) tint = vec3(1.0f, 0.35f, 0.35f);
+    if (cascade == 1) tint = vec3(0.35f, 1.0f, 0.35f);
+    if (cascade == 2) tint = vec3(0.35f, 0.35f, 1.0f);
+    if (cascade == 3) tint = vec3(1.0f, 1.0f, 0.35f);
+    return vec4(lit * tint, 1.0f);
+  }
+  return vec4(lit, 1.0f);
+}
+
+#endif

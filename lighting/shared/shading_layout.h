@@ -1,0 +1,103 @@
+// shading_layout.h: the records of the deferred lighting pass (DESIGN.md §7), readable as C++ and GLSL: a
+// G-buffer texel, a light as the pass shades it, a shadow layer as the pass samples it, and the pass's push
+// block. lighting/shared/shading.h is the arithmetic over them, compiled for the shader and for the CPU.
+#ifndef VOXSHADOW_SHADING_LAYOUT_H
+#define VOXSHADOW_SHADING_LAYOUT_H
+
+#include "voxel/portable.h"
+
+VS_NAMESPACE_BEGIN
+
+// ShadeLight.info.x
+const int VS_LIGHT_DIRECTIONAL = 0;
+const int VS_LIGHT_SPOT = 1;
+const int VS_LIGHT_POINT = 2;
+
+// ShadeLight.info.y: the shadow filter; VS_FILTER_NONE for a light without shadow views.
+const int VS_FILTER_NONE = -1;
+const int VS_FILTER_HARD = 0;
+const int VS_FILTER_PCF3 = 1;
+const int VS_FILTER_PCF5 = 2;
+const int VS_FILTER_POISSON16 = 3;
+const int VS_FILTER_PCSS = 4;
+
+// ShadePush.mode: what the pass writes.
+const int VS_SHADE_LIT = 0;             // ambient + lights, linear HDR
+const int VS_SHADE_DEBUG_CASCADES = 1;  // the lit image tinted by the first directional light's cascade
+const int VS_SHADE_DEBUG_SHADOW = 2;    // the shadow term of each pixel (the mean over its lights), grey
+const int VS_SHADE_DEBUG_NORMALS = 3;   // the normal, as 0.5 + 0.5 n
+
+// Widest filter kernels, in texels from the centre: pcf5 reaches 2, poisson16's disc 2.5, pcss at most
+// VS_PCSS_MAX_RADIUS. A cascade is chosen for a pixel only when the kernel stays inside its layer (the
+// lateral check), so that no sample falls off the layer's edge.
+const float VS_POISSON_RADIUS = 2.5f;
+const float VS_PCSS_MAX_RADIUS = 8.0f;
+// N.L below which the slope-scaled bias stops growing: at grazing light it would otherwise push the
+// receiver past its casters.
+const float VS_MIN_SLOPE_COSINE = 0.05f;
+
+// One pixel of the G-buffer, from the camera's primary ray (lighting/gbuffer.h).
+struct GBufferTexel {
+  vec4 position;  // xyz: world position of the hit (the entry point); w: linear view depth, 0 on a miss
+  vec4 normal;    // xyz: unit world normal of the entry face; w: the world size of the hit voxel
+  vec4 albedo;    // rgb: the voxel's palette colour (linear); a: 1 on a hit, 0 on a miss
+  uvec4 info;     // x: instance index; y: palette index; z: entry face (VS_FACE_*); w: 1 on a hit
+};
+
+// A light as the pass shades it.
+struct ShadeLight {
+  vec4 color;      // rgb: colour x intensity; w: 0
+  vec4 position;   // xyz: spot and point position; w: range (spot, point)
+  vec4 direction;  // xyz: unit direction the light travels (directional, spot); w: cos of the outer cone
+  vec4 bias;       // x: constant (world, along L); y: normal offset (texels); z: slope (texels / max(N.L, 0.05));
+                   // w: pcss light size (world)
+  vec4 extra;      // x: cos of the inner cone; y: contact-shadow length (world, 0: off); z: cascade blend band
+                   // (share of each cascade's depth range); w: 0
+  ivec4 info;      // x: VS_LIGHT_*; y: VS_FILTER_*; z: its first ShadeView; w: its view count
+};
+
+// A shadow layer as the pass samples it.
+struct ShadeView {
+  mat4 eyeToClip;  // clip = eyeToClip * (p - eye): the view-projection about its eye
+  vec4 eye;        // xyz: the eye (spot, point: the light; directional: its near plane's centre); w: the world
+                   // size of a texel (directional), or of a texel at unit distance (spot, point)
+  vec4 split;      // x, y: the camera view depths a cascade covers; z: the miss value; w: world units per unit
+                   // of the encoded depth (pcss)
+  ivec4 info;      // x: the layer's first texel in the layer buffer; y: its width (= height); z: VS_ENCODING_*;
+                   // w: the cascade index, -1 for other views
+};
+
+// The pass's push block.
+struct ShadePush {
+  vec4 ambient;  // rgb: ambient colour x intensity; w: 0
+  vec4 sky;      // rgb: the colour of pixels that hit nothing; w: 0
+  ivec4 size;    // x: width, y: height (pixels); z: light count; w: VS_SHADE_* mode
+  ivec4 flags;   // x: 1 where exact visibility rays replace the shadow maps (ray-traced shadows); yzw: 0
+};
+
+VS_NAMESPACE_END
+
+#ifndef VS_GLSL
+namespace vs::gpu {
+VS_LAYOUT_CHECK(GBufferTexel, 64);
+VS_OFFSET_CHECK(GBufferTexel, normal, 16);
+VS_OFFSET_CHECK(GBufferTexel, albedo, 32);
+VS_OFFSET_CHECK(GBufferTexel, info, 48);
+VS_LAYOUT_CHECK(ShadeLight, 96);
+VS_OFFSET_CHECK(ShadeLight, position, 16);
+VS_OFFSET_CHECK(ShadeLight, direction, 32);
+VS_OFFSET_CHECK(ShadeLight, bias, 48);
+VS_OFFSET_CHECK(ShadeLight, extra, 64);
+VS_OFFSET_CHECK(ShadeLight, info, 80);
+VS_LAYOUT_CHECK(ShadeView, 112);
+VS_OFFSET_CHECK(ShadeView, eye, 64);
+VS_OFFSET_CHECK(ShadeView, split, 80);
+VS_OFFSET_CHECK(ShadeView, info, 96);
+VS_LAYOUT_CHECK(ShadePush, 64);
+VS_OFFSET_CHECK(ShadePush, sky, 16);
+VS_OFFSET_CHECK(ShadePush, size, 32);
+VS_OFFSET_CHECK(ShadePush, flags, 48);
+}  // namespace vs::gpu
+#endif
+
+#endif

@@ -1,0 +1,168 @@
+// vulkan_lighting.cpp: the lighting pipeline, its buffers and one dispatch per frame.
+#include "lighting/vulkan_lighting.h"
+
+#include <array>
+#include <cstring>
+
+#include "deferred_lighting.spv.h"
+#include "lighting/shared/lighting_interface.h"
+#include "voxel/error.h"
+
+namespace vs {
+
+struct VulkanLighting::Impl {
+  VulkanContext& context;
+  vk::ComputePipeline pipeline;
+  vk::UniqueShaderModule module;
+  vk::UniqueDescriptorPool descriptorPool;
+  VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
+  // Host-visible buffers in binding order; each grows to the largest frame so far.
+  std::array<vk::Buffer, gpu::VS_LIGHTING_BINDING_COUNT> buffers;
+
+  explicit Impl(VulkanContext& c) : context(c) {
+    VkDevice dev = context.device();
+    std::array<VkDescriptorSetLayoutBinding, gpu::VS_LIGHTING_BINDING_COUNT> bindings{};
+    for (std::uint32_t b = 0; b < gpu::VS_LIGHTING_BINDING_COUNT; ++b)
+      bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+    auto dl = vk::make<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
+    dl.bindingCount = std::uint32_t(bindings.size());
+    dl.pBindings = bindings.data();
+    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+    vk::check(vkCreateDescriptorSetLayout(dev, &dl, nullptr, &setLayout), "vkCreateDescriptorSetLayout");
+    pipeline.setLayout = vk::UniqueDescriptorSetLayout(dev, setLayout);
+
+    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::ShadePush)};
+    auto pl = vk::make<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
+    pl.setLayoutCount = 1;
+    pl.pSetLayouts = &setLayout;
+    pl.pushConstantRangeCount = 1;
+    pl.pPushConstantRanges = &range;
+    VkPipelineLayout layout = VK_NULL_HANDLE;
+    vk::check(vkCreatePipelineLayout(dev, &pl, nullptr, &layout), "vkCreatePipelineLayout");
+    pipeline.layout = vk::UniquePipelineLayout(dev, layout);
+
+    module = context.createShaderModule(deferred_lighting, sizeof deferred_lighting);
+    auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
+    ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
+    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    ci.stage.module = module.get();
+    ci.stage.pName = "main";
+    ci.layout = layout;
+    VkPipeline p = VK_NULL_HANDLE;
+    vk::check(vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &ci, nullptr, &p), "vkCreateComputePipelines");
+    pipeline.pipeline = vk::UniquePipeline(dev, p);
+
+    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::VS_LIGHTING_BINDING_COUNT};
+    auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+    dp.maxSets = 1;
+    dp.poolSizeCount = 1;
+    dp.pPoolSizes = &size;
+    VkDescriptorPool pool = VK_NULL_HANDLE;
+    vk::check(vkCreateDescriptorPool(dev, &dp, nullptr, &pool), "vkCreateDescriptorPool");
+    descriptorPool = vk::UniqueDescriptorPool(dev, pool);
+    auto ai = vk::make<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+    ai.descriptorPool = pool;
+    ai.descriptorSetCount = 1;
+    ai.pSetLayouts = &setLayout;
+    vk::check(vkAllocateDescriptorSets(dev, &ai, &descriptorSet), "vkAllocateDescriptorSets");
+  }
+
+  // Binding b holds at least `bytes` (never 0: an empty array binds a 16-byte buffer); true when it was replaced.
+  bool reserve(std::uint32_t b, std::size_t bytes) {
+    const VkDeviceSize need = std::max<VkDeviceSize>(16, VkDeviceSize(bytes));
+    if (buffers[b].buffer && buffers[b].size >= need) return false;
+    const VkDeviceSize maxRange = context.info().maxStorageBufferRange;
+    if (need > maxRange)
+      throwRuntime("lighting: a " + std::to_string(need) + "-byte buffer exceeds maxStorageBufferRange (" +
+                   std::to_string(maxRange) + ") of " + context.info().name + "; render smaller or use --backend cpu");
+    buffers[b] = context.createHostBuffer(need, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    return true;
+  }
+
+  void fill(std::uint32_t b, const void* data, std::size_t bytes) {
+    reserve(b, bytes);
+    if (bytes) std::memcpy(buffers[b].mapped, data, bytes);
+  }
+
+  void writeDescriptors() {
+    std::array<VkDescriptorBufferInfo, gpu::VS_LIGHTING_BINDING_COUNT> infos{};
+    std::array<VkWriteDescriptorSet, gpu::VS_LIGHTING_BINDING_COUNT> writes{};
+    for (std::uint32_t b = 0; b < gpu::VS_LIGHTING_BINDING_COUNT; ++b) {
+      infos[b] = {buffers[b].get(), 0, VK_WHOLE_SIZE};
+      writes[b] = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+      writes[b].dstSet = descriptorSet;
+      writes[b].dstBinding = b;
+      writes[b].descriptorCount = 1;
+      writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      writes[b].pBufferInfo = &infos[b];
+    }
+    vkUpdateDescriptorSets(context.device(), std::uint32_t(writes.size()), writes.data(), 0, nullptr);
+  }
+
+  ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
+                    std::span<const std::uint32_t> rayVisibility) {
+    const std::size_t pixels = std::size_t(push.size.x) * std::size_t(push.size.y);
+    const std::size_t lights = inputs.lights.size();
+    if (gbuffer.texels.size() != pixels || std::size_t(push.size.z) != lights)
+      throwBadInput("lighting: the G-buffer, the push block and the lights disagree on sizes");
+    std::vector<std::uint32_t> clear;
+    if (rayVisibility.empty()) {
+      clear.assign(pixels * lights, 1u);
+      rayVisibility = clear;
+    }
+    if (rayVisibility.size() != pixels * lights) throwBadInput("lighting: one visibility answer per pixel and light expected");
+    // A replaced buffer needs its descriptor rewritten; a kept one is written over in place.
+    bool replaced = !buffers[0].buffer;
+    auto sized = [&](std::uint32_t b, std::size_t bytes) { replaced = reserve(b, bytes) || replaced; };
+    sized(gpu::VS_LIGHTING_BINDING_GBUFFER, pixels * sizeof(gpu::GBufferTexel));
+    sized(gpu::VS_LIGHTING_BINDING_LIGHTS, lights * sizeof(gpu::ShadeLight));
+    sized(gpu::VS_LIGHTING_BINDING_VIEWS, inputs.views.size() * sizeof(gpu::ShadeView));
+    sized(gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS, inputs.shadowTexels.size() * sizeof(float));
+    sized(gpu::VS_LIGHTING_BINDING_VISIBILITY, rayVisibility.size() * sizeof(std::uint32_t));
+    sized(gpu::VS_LIGHTING_BINDING_SHADOW_TERMS, pixels * lights * sizeof(float));
+    sized(gpu::VS_LIGHTING_BINDING_COLOR, pixels * sizeof(glm::vec4));
+    if (replaced) writeDescriptors();
+    fill(gpu::VS_LIGHTING_BINDING_GBUFFER, gbuffer.texels.data(), pixels * sizeof(gpu::GBufferTexel));
+    fill(gpu::VS_LIGHTING_BINDING_LIGHTS, inputs.lights.data(), lights * sizeof(gpu::ShadeLight));
+    fill(gpu::VS_LIGHTING_BINDING_VIEWS, inputs.views.data(), inputs.views.size() * sizeof(gpu::ShadeView));
+    fill(gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS, inputs.shadowTexels.data(), inputs.shadowTexels.size() * sizeof(float));
+    fill(gpu::VS_LIGHTING_BINDING_VISIBILITY, rayVisibility.data(), rayVisibility.size() * sizeof(std::uint32_t));
+
+    const std::uint32_t groupsX = (std::uint32_t(push.size.x) + gpu::VS_LIGHTING_GROUP_WIDTH - 1) / gpu::VS_LIGHTING_GROUP_WIDTH;
+    const std::uint32_t groupsY = (std::uint32_t(push.size.y) + gpu::VS_LIGHTING_GROUP_HEIGHT - 1) / gpu::VS_LIGHTING_GROUP_HEIGHT;
+    context.submitAndWait([&](VkCommandBuffer cmd) {
+      // The host's writes above, before the shader reads them.
+      auto toShader = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+      toShader.srcAccessMask = VK_ACCESS_HOST_WRITE_BIT;
+      toShader.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
+      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_HOST_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &toShader, 0,
+                           nullptr, 0, nullptr);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline.get());
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet, 0, nullptr);
+      vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::ShadePush), &push);
+      vkCmdDispatch(cmd, groupsX, groupsY, 1);
+      auto toHost = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+      toHost.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+      toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
+                           nullptr, 0, nullptr);
+    });
+    ShadeOutput out;
+    out.color.resize(pixels);
+    out.shadowTerms.resize(pixels * lights);
+    std::memcpy(out.color.data(), buffers[gpu::VS_LIGHTING_BINDING_COLOR].mapped, pixels * sizeof(glm::vec4));
+    if (!out.shadowTerms.empty())
+      std::memcpy(out.shadowTerms.data(), buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TERMS].mapped,
+                  out.shadowTerms.size() * sizeof(float));
+    return out;
+  }
+};
+
+VulkanLighting::VulkanLighting(VulkanContext& context) : impl_(std::make_unique<Impl>(context)) {}
+VulkanLighting::~VulkanLighting() = default;
+ShadeOutput VulkanLighting::shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
+                                  std::span<const std::uint32_t> rayVisibility) {
+  return impl_->shade(inputs, push, gbuffer, rayVisibility);
+}
+
+}  // namespace vs

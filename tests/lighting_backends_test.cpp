@@ -1,0 +1,234 @@
+// lighting_backends_test.cpp: the G-buffer and the lit image on both backends (Vulkan lavapipe or GPU against
+// the CPU), every filter, bias and debug view, and the scene-file and CLI errors of the lighting options.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <OpenImageIO/imageio.h>
+
+#include "compute/tracer.h"
+#include "lighting/deferred.h"
+#include "lighting/renderer.h"
+#include "lighting/scene.h"
+#include "lighting/vulkan_lighting.h"
+#include "support/lighting_scenes.h"
+#include "support/test_paths.h"
+#include "voxel/error.h"
+
+namespace fs = std::filesystem;
+using namespace vs;
+
+namespace {
+
+fs::path cityScene(const std::string& name, const nlohmann::json& shadow = nlohmann::json::object(),
+                   const nlohmann::json& camera = nlohmann::json::object()) {
+  const fs::path dir = test::scratchDir("lighting_backends");
+  const fs::path vdb = dir / "city.vdb";
+  if (!fs::exists(vdb)) test::writeBoxesVdb(vdb, test::cityBoxes());
+  return test::writeLightingScene(dir, name, vdb, test::sunDirection(40.0), shadow, camera);
+}
+
+RenderedFrame render(const Scene& scene, Tracer& tracer, RenderOptions options = {}) {
+  FrameRenderer renderer(tracer);
+  return renderer.render(scene, options);
+}
+
+}  // namespace
+
+// The G-buffer bit for bit, the shadow terms and the lit image from the Vulkan lighting shader against the
+// CPU build of the same shading source.
+TEST(LightingBackends, VulkanMatchesTheCpuPass) {
+  VulkanOptions options;
+  options.validation = true;
+  std::unique_ptr<Tracer> vulkan = makeVulkanTracer(options);  // no device: fails here, loudly
+  std::unique_ptr<Tracer> cpu = makeCpuTracer();
+  for (const char* filter : {"hard", "pcf5", "poisson16", "pcss"}) {
+    const Scene scene = Scene::load(cityScene(std::string("backends_") + filter, {{"filter", filter}, {"contact_shadow", 1.5}},
+                                              {{"width", 200}, {"height", 150}}));
+    vulkan->setScene(scene.data());
+    cpu->setScene(scene.data());
+    const RenderedFrame gpu = render(scene, *vulkan);
+    const RenderedFrame host = render(scene, *cpu);
+    ASSERT_EQ(gpu.gbuffer.texels.size(), host.gbuffer.texels.size());
+    EXPECT_EQ(0, std::memcmp(gpu.gbuffer.texels.data(), host.gbuffer.texels.data(),
+                             host.gbuffer.texels.size() * sizeof(gpu::GBufferTexel))) << filter;
+    std::size_t hits = 0;
+    for (const gpu::GBufferTexel& g : host.gbuffer.texels) hits += g.info.w;
+    EXPECT_GT(hits, 10000u);
+    double worst = 0.0;
+    std::size_t termsDiffer = 0;
+    for (std::size_t i = 0; i < host.color.size(); ++i)
+      for (int c = 0; c < 4; ++c)
+        worst = std::max(worst, double(std::abs(gpu.color[i][c] - host.color[i][c])) / std::max(1.0f, std::abs(host.color[i][c])));
+    for (std::size_t i = 0; i < host.shadowTerms.size(); ++i) termsDiffer += gpu.shadowTerms[i] != host.shadowTerms[i];
+    EXPECT_LE(worst, 1.0 / 255.0) << filter;
+    // Trigonometry (the disc filters' rotation) may round differently on the device; the terms agree elsewhere.
+    EXPECT_LE(termsDiffer, host.shadowTerms.size() / 1000) << filter;
+    std::printf("%s: largest colour difference %.2e, %zu of %zu shadow terms differ\n", filter, worst, termsDiffer,
+                host.shadowTerms.size());
+  }
+  EXPECT_TRUE(vulkan->vulkan()->validationMessages().empty());
+}
+
+// Every filter: hard gives only 0 and 1; the others soften edges; pcss softens more with a larger light.
+TEST(LightingFilters, EveryFilterShadesAndSoftensAsItShould) {
+  std::unique_ptr<Tracer> cpu = makeCpuTracer();
+  auto fractional = [&](const nlohmann::json& shadow, const std::string& name) {
+    const Scene scene = Scene::load(cityScene(name, shadow, {{"width", 200}, {"height", 150}}));
+    cpu->setScene(scene.data());
+    const RenderedFrame f = render(scene, *cpu);
+    std::size_t soft = 0, shadowed = 0;
+    for (float s : f.shadowTerms) {
+      EXPECT_GE(s, 0.0f);
+      EXPECT_LE(s, 1.0f);
+      soft += s > 0.0f && s < 1.0f;
+      shadowed += s < 0.5f;
+    }
+    EXPECT_GT(shadowed, 300u) << name;
+    return soft;
+  };
+  // Without a blend band (which mixes two cascades), hard shadows are 0 or 1.
+  EXPECT_EQ(fractional({{"filter", "hard"}, {"cascade_blend", 0}}, "f_hard"), 0u);
+  const std::size_t pcf3 = fractional({{"filter", "pcf3"}}, "f_pcf3");
+  const std::size_t pcf5 = fractional({{"filter", "pcf5"}}, "f_pcf5");
+  const std::size_t poisson = fractional({{"filter", "poisson16"}}, "f_poisson");
+  const std::size_t pcssSmall = fractional({{"filter", "pcss"}, {"light_size", 0.2}}, "f_pcss_small");
+  const std::size_t pcssLarge = fractional({{"filter", "pcss"}, {"light_size", 3.0}}, "f_pcss_large");
+  EXPECT_GT(pcf3, 0u);
+  EXPECT_GT(pcf5, pcf3);
+  EXPECT_GT(poisson, 0u);
+  EXPECT_GT(pcssLarge, pcssSmall);
+  std::printf("soft pixels: pcf3 %zu, pcf5 %zu, poisson16 %zu, pcss %zu (light 0.2) / %zu (light 3)\n", pcf3, pcf5,
+              poisson, pcssSmall, pcssLarge);
+}
+
+// Biases only ever move receivers toward the light: more bias, fewer shadowed receivers.
+TEST(LightingFilters, LargerBiasesShadowLess) {
+  std::unique_ptr<Tracer> cpu = makeCpuTracer();
+  auto shadowed = [&](const nlohmann::json& shadow, const std::string& name) {
+    const Scene scene = Scene::load(cityScene(name, shadow, {{"width", 200}, {"height", 150}}));
+    cpu->setScene(scene.data());
+    const RenderedFrame f = render(scene, *cpu);
+    return std::count_if(f.shadowTerms.begin(), f.shadowTerms.end(), [](float s) { return s < 0.5f; });
+  };
+  const auto none = shadowed({{"normal_bias", 0}, {"slope_bias", 0}}, "b_none");
+  const auto constant = shadowed({{"normal_bias", 0}, {"slope_bias", 0}, {"depth_bias", 0.5}}, "b_constant");
+  const auto normal = shadowed({{"normal_bias", 4}, {"slope_bias", 0}}, "b_normal");
+  const auto slope = shadowed({{"normal_bias", 0}, {"slope_bias", 4}}, "b_slope");
+  EXPECT_LT(constant, none);
+  EXPECT_LT(normal, none);
+  EXPECT_LT(slope, none);
+}
+
+TEST(LightingDebug, EveryDebugViewShowsWhatItNames) {
+  std::unique_ptr<Tracer> cpu = makeCpuTracer();
+  const Scene scene = Scene::load(cityScene("debug", {{"filter", "pcf3"}}, {{"width", 160}, {"height", 120}}));
+  cpu->setScene(scene.data());
+  const RenderedFrame lit = render(scene, *cpu);
+  RenderOptions o;
+  o.debug = DebugView::Normals;
+  const RenderedFrame normals = render(scene, *cpu, o);
+  o.debug = DebugView::Shadow;
+  const RenderedFrame shadow = render(scene, *cpu, o);
+  o.debug = DebugView::Cascades;
+  const RenderedFrame cascades = render(scene, *cpu, o);
+  o.debug = DebugView::Layer;
+  o.debugLayer = 2;
+  const RenderedFrame layer = render(scene, *cpu, o);
+  std::size_t tinted = 0;
+  for (std::size_t i = 0; i < lit.color.size(); ++i) {
+    const gpu::GBufferTexel& g = lit.gbuffer.texels[i];
+    if (g.info.w == 0u) continue;
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_FLOAT_EQ(normals.color[i][c], g.normal[c] * 0.5f + 0.5f);
+      EXPECT_FLOAT_EQ(shadow.color[i][c], lit.shadowTerms[i]);
+    }
+    tinted += cascades.color[i] != lit.color[i];
+  }
+  EXPECT_GT(tinted, 1000u);
+  // The layer view shows the third layer (sun.cascade2) scaled to the frame: NDC depths, 0..1, not all alike.
+  float lo = 1.0f, hi = 0.0f;
+  for (const glm::vec4& c : layer.color) {
+    lo = std::min(lo, c.x);
+    hi = std::max(hi, c.x);
+  }
+  EXPECT_LT(lo, hi);
+  for (const glm::vec4& c : layer.color) {
+    EXPECT_GE(c.x, 0.0f);
+    EXPECT_LE(c.x, 1.0f);
+  }
+  o.debugLayer = 3;
+  EXPECT_THROW(render(scene, *cpu, o), vs::Error);
+}
+
+TEST(LightingSceneFile, LightingKeysAreValidated) {
+  const fs::path dir = test::scratchDir("lighting_keys");
+  auto error = [&](const nlohmann::json& shadow, const std::string& type = "directional") {
+    nlohmann::json light = {{"name", "l"}, {"type", type}, {"shadow", shadow}};
+    if (type == "directional") light["direction"] = {0, -1, 0};
+    else {
+      light["position"] = {0, 5, 0};
+      light["range"] = 20;
+      if (type == "spot") {
+        light["direction"] = {0, -1, 0};
+        light["outer_cone_deg"] = 30;
+      }
+    }
+    const nlohmann::json scene = {{"version", 1}, {"assets", nlohmann::json::object()}, {"lights", {light}}};
+    try {
+      parseSceneJson(scene.dump(), dir / "keys.json");
+    } catch (const vs::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_TRUE(test::contains(error({{"light_size", -1}}), "lights[0].shadow.light_size: must not be negative"));
+  EXPECT_TRUE(test::contains(error({{"contact_shadow", "far"}}), "lights[0].shadow.contact_shadow: must be a number"));
+  EXPECT_TRUE(test::contains(error({{"cascade_blend", 0.7}}), "lights[0].shadow.cascade_blend"));
+  EXPECT_TRUE(test::contains(error({{"cascade_blend", 0.1}}, "spot"), "only directional lights have cascades"));
+  EXPECT_TRUE(test::contains(error({{"slope_bias", 1e9}}), "lights[0].shadow.slope_bias: must be at most"));
+  EXPECT_EQ(error({{"light_size", 2}, {"contact_shadow", 0.5}, {"cascade_blend", 0.2}, {"slope_bias", 2}}), "");
+}
+
+TEST(CliRender, WritesPngAndExrAndRefusesBadOptions) {
+  const fs::path file = cityScene("cli", {}, {{"width", 96}, {"height", 64}});
+  const fs::path dir = file.parent_path();
+  std::string out;
+  ASSERT_EQ(test::runCli("render " + test::quote(file) + " -o " + test::quote(dir / "city.png") + " --backend cpu", out), 0) << out;
+  ASSERT_EQ(test::runCli("render " + test::quote(file) + " -o " + test::quote(dir / "city.exr") +
+                         " --backend cpu --shadows raytraced", out), 0) << out;
+  auto png = OIIO::ImageInput::open((dir / "city.png").string());
+  ASSERT_TRUE(png);
+  EXPECT_EQ(png->spec().width, 96);
+  EXPECT_EQ(png->spec().nchannels, 3);
+  auto exr = OIIO::ImageInput::open((dir / "city.exr").string());
+  ASSERT_TRUE(exr);
+  const std::vector<std::string>& names = exr->spec().channelnames;
+  for (const char* n : {"R", "G", "B", "A", "position.X", "normal.Y", "albedo.R", "depth.Z", "instance.id", "shadow.sun"})
+    EXPECT_NE(std::find(names.begin(), names.end(), n), names.end()) << n;
+  for (const char* debug : {"cascades", "shadow", "normals", "layer=1"})
+    EXPECT_EQ(test::runCli("render " + test::quote(file) + " -o " + test::quote(dir / "debug.png") +
+                           " --backend cpu --debug " + debug, out), 0) << debug << out;
+
+  auto refused = [&](const std::string& args, const std::string& mention) {
+    const int status = test::runCli("render " + args, out);
+    EXPECT_EQ(status, 2) << args << "\n" << out;
+    EXPECT_TRUE(test::contains(out, mention)) << args << "\n" << out;
+  };
+  const std::string scene = test::quote(file);
+  refused(scene + " -o " + test::quote(dir / "x.tiff") + " --backend cpu", "must be a .png or .exr");
+  refused(scene + " -o " + test::quote(dir / "x.png") + " --backend cpu --debug sideways", "--debug sideways");
+  refused(scene + " -o " + test::quote(dir / "x.png") + " --backend cpu --debug layer=9", "shadow layers");
+  refused(scene + " -o " + test::quote(dir / "x.png") + " --backend cpu --shadows soft", "--shadows");
+  refused(scene + " -o " + test::quote(dir / "x.png") + " --backend cpu --width 20000", "--width");
+  refused(scene + " -o " + test::quote(file) + " --backend cpu", "");
+  EXPECT_FALSE(fs::exists(dir / "x.png"));
+  EXPECT_FALSE(fs::exists(dir / "x.tiff"));
+  // A scene without a camera has nothing to render from.
+  nlohmann::json noCamera = nlohmann::json::parse(std::ifstream(file));
+  noCamera.erase("camera");
+  std::ofstream(dir / "nocamera.json") << noCamera.dump();
+  refused(test::quote(dir / "nocamera.json") + " -o " + test::quote(dir / "x.png") + " --backend cpu", "camera");
+}

@@ -1,0 +1,395 @@
+// lighting_test.cpp: cascades, the G-buffer and the deferred lighting pass, measured against the ray-traced
+// truth (one exact visibility ray per pixel and light): agreement, acne, peter-panning, shimmer, seams, and
+// the Vulkan pass against the CPU pass.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include <gtest/gtest.h>
+
+#include "compute/tracer.h"
+#include "lighting/cascades.h"
+#include "lighting/deferred.h"
+#include "lighting/renderer.h"
+#include "lighting/scene.h"
+#include "support/lighting_scenes.h"
+#include "support/test_paths.h"
+#include "voxel/demo_world.h"
+#include "voxel/error.h"
+
+namespace fs = std::filesystem;
+using namespace vs;
+
+namespace {
+
+struct TruthComparison {
+  int receivers = 0;        // pixels with a hit that face the light
+  int falselyLit = 0;       // the maps say lit (> 0.5), the truth says shadowed
+  int falselyShadowed = 0;  // the maps say shadowed (< 0.5), the truth says lit: acne
+  double differing() const { return receivers ? double(falselyLit + falselyShadowed) / receivers : 0.0; }
+};
+
+std::unique_ptr<Tracer> cpuTracer() { return makeCpuTracer({CpuTracePath::Interleaved, 0}); }
+
+RenderedFrame renderWith(const Scene& scene, Tracer& tracer, ShadowSource source, int width = 0, int height = 0) {
+  FrameRenderer renderer(tracer);
+  RenderOptions options;
+  options.shadows = source;
+  options.width = width;
+  options.height = height;
+  return renderer.render(scene, options);
+}
+
+// Light `light`'s term per receiver pixel, maps against truth.
+TruthComparison compareWithTruth(const RenderedFrame& maps, const RenderedFrame& truth, std::size_t light,
+                                 const glm::dvec3& toLight) {
+  TruthComparison c;
+  const std::size_t lights = maps.lightNames.size();
+  for (std::size_t i = 0; i < maps.gbuffer.texels.size(); ++i) {
+    const gpu::GBufferTexel& g = maps.gbuffer.texels[i];
+    if (g.info.w == 0u || !(glm::dot(glm::dvec3(glm::vec3(g.normal)), toLight) > 0.0)) continue;
+    ++c.receivers;
+    const bool mapLit = maps.shadowTerms[i * lights + light] > 0.5f;
+    const bool trueLit = truth.shadowTerms[i * lights + light] > 0.5f;
+    if (mapLit && !trueLit) ++c.falselyLit;
+    if (!mapLit && trueLit) ++c.falselyShadowed;
+  }
+  return c;
+}
+
+Scene loadWithFilter(const fs::path& file, ShadowFilter filter) {
+  SceneDesc desc = parseSceneFile(file);
+  for (LightDesc& l : desc.lights)
+    if (l.shadow) l.shadow->filter = filter;
+  return Scene::load(std::move(desc));
+}
+
+fs::path sceneOf(const std::string& dirName, const test::VoxelBoxSet& boxes, const glm::dvec3& sun,
+                 const nlohmann::json& shadow = nlohmann::json::object(),
+                 const nlohmann::json& camera = nlohmann::json::object(), const std::string& name = "scene") {
+  const fs::path dir = test::scratchDir(dirName);
+  const fs::path vdb = dir / "world.vdb";
+  if (!fs::exists(vdb)) test::writeBoxesVdb(vdb, boxes);
+  return test::writeLightingScene(dir, name, vdb, sun, shadow, camera);
+}
+
+}  // namespace
+
+TEST(Cascades, SplitsBlendUniformAndLogarithmic) {
+  const std::vector<double> uniform = cascadeSplits(1.0, 100.0, 4, 0.0);
+  const std::vector<double> logarithmic = cascadeSplits(1.0, 100.0, 4, 1.0);
+  ASSERT_EQ(uniform.size(), 5u);
+  EXPECT_DOUBLE_EQ(uniform[2], 50.5);
+  EXPECT_NEAR(logarithmic[2], 10.0, 1e-9);
+  const std::vector<double> mixed = cascadeSplits(1.0, 100.0, 4, 0.5);
+  EXPECT_NEAR(mixed[2], 0.5 * 50.5 + 0.5 * 10.0, 1e-9);
+  for (std::size_t i = 1; i < mixed.size(); ++i) EXPECT_LT(mixed[i - 1], mixed[i]);
+  EXPECT_EQ(mixed.front(), 1.0);
+  EXPECT_EQ(mixed.back(), 100.0);
+}
+
+TEST(Cascades, SphereHoldsTheSliceAndIgnoresTheCameraRotation) {
+  CameraDesc desc;
+  desc.position = glm::vec3(10, 20, 30);
+  desc.target = glm::vec3(0, 0, 0);
+  desc.fovDeg = 60;
+  const CameraFrame a = cameraFrame(desc, 640, 360);
+  desc.target = glm::vec3(40, -5, 10);
+  const CameraFrame b = cameraFrame(desc, 640, 360);
+  const glm::dvec3 sun = test::sunDirection(40.0);
+  const Aabb bounds{glm::vec3(-50.0f), glm::vec3(50.0f)};
+  const CascadeFit fa = fitCascade(a, 5.0, 40.0, sun, 1024, bounds);
+  const CascadeFit fb = fitCascade(b, 5.0, 40.0, sun, 1024, bounds);
+  EXPECT_EQ(fa.diameter, fb.diameter);
+  EXPECT_EQ(fa.texelWorld, fb.texelWorld);
+  // Every corner of the slice projects inside the layer.
+  for (int corner = 0; corner < 8; ++corner) {
+    const double z = corner & 4 ? 40.0 : 5.0;
+    const double sx = (corner & 1 ? 1.0 : -1.0) * a.tanHalfFovY * a.aspect * z;
+    const double sy = (corner & 2 ? 1.0 : -1.0) * a.tanHalfFovY * z;
+    const glm::dvec3 p = a.position + a.forward * z + a.right * sx + a.up * sy;
+    const glm::dvec4 clip = fa.worldToClip * glm::dvec4(p, 1.0);
+    EXPECT_LE(std::abs(clip.x), 1.0 + 2.0 / 1024) << corner;
+    EXPECT_LE(std::abs(clip.y), 1.0 + 2.0 / 1024) << corner;
+    EXPECT_GE(clip.z, 0.0);
+    EXPECT_LE(clip.z, 1.0);
+  }
+  // The light-space centre lies on whole texels.
+  const double tx = fa.snappedCentre.x / fa.texelWorld, ty = fa.snappedCentre.y / fa.texelWorld;
+  EXPECT_EQ(tx, std::round(tx));
+  EXPECT_EQ(ty, std::round(ty));
+}
+
+TEST(Cascades, SceneWithACameraBakesCascadeLayersAndOthersKeepTheirs) {
+  const fs::path file = sceneOf("cascade_layers", test::floorBoxes(), test::sunDirection(45.0));
+  const Scene scene = Scene::load(file);
+  const std::vector<LightView> views = scene.lightViews();
+  ASSERT_EQ(views.size(), 3u);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_EQ(views[std::size_t(c)].name, "sun.cascade" + std::to_string(c));
+    EXPECT_EQ(views[std::size_t(c)].cascade, c);
+    if (c > 0) {
+      EXPECT_EQ(views[std::size_t(c)].splitNear, views[std::size_t(c) - 1].splitFar);
+    }
+  }
+  EXPECT_EQ(views.back().splitFar, 160.0);  // max_distance, nearer than the camera's far plane
+}
+
+// Agreement with the ray-traced truth, with the hard filter and at least one shadow texel per pixel. The
+// bounds are what the shading code achieves today (printed below), held so that they cannot get worse: the
+// city stays within 0.6% of receivers (0.54% at 20 degrees, 0.25% at 45, 0.10% at 70); the errors lie along
+// shadow edges, a texel wide.
+TEST(LightingTruth, CityAtThreeElevationsAgreesWithRayTracedShadows) {
+  auto tracer = cpuTracer();
+  for (double elevation : {20.0, 45.0, 70.0}) {
+    const glm::dvec3 sun = test::sunDirection(elevation);
+    const fs::path file = sceneOf("truth_city", test::cityBoxes(), sun, {{"resolution", 2048}}, {},
+                                  "e" + std::to_string(int(elevation)));
+    const Scene scene = Scene::load(file);
+    tracer->setScene(scene.data());
+    const RenderedFrame maps = renderWith(scene, *tracer, ShadowSource::Maps);
+    const RenderedFrame truth = renderWith(scene, *tracer, ShadowSource::Raytraced);
+    const TruthComparison c = compareWithTruth(maps, truth, 0, -sun);
+    EXPECT_GT(c.receivers, 30000);
+    EXPECT_LE(c.differing(), 0.006) << "elevation " << elevation << ": " << c.falselyLit << " falsely lit, "
+                                    << c.falselyShadowed << " falsely shadowed of " << c.receivers;
+    std::printf("city, sun at %.0f deg: %d falsely lit, %d falsely shadowed of %d receivers (%.3f%%)\n", elevation,
+                c.falselyLit, c.falselyShadowed, c.receivers, 100.0 * c.differing());
+  }
+}
+
+TEST(LightingTruth, DemoSceneAgreesWithRayTracedShadows) {
+  const fs::path dir = test::scratchDir("truth_demo");
+  const std::vector<std::string> written = writeDemoWorld(dir);
+  const Scene scene = loadWithFilter(written.back(), ShadowFilter::Hard);
+  auto tracer = cpuTracer();
+  tracer->setScene(scene.data());
+  // 640 x 360: at least one shadow texel per pixel in every cascade the camera sees.
+  const RenderedFrame maps = renderWith(scene, *tracer, ShadowSource::Maps, 640, 360);
+  const RenderedFrame truth = renderWith(scene, *tracer, ShadowSource::Raytraced, 640, 360);
+  for (std::size_t l = 0; l < scene.desc().lights.size(); ++l) {
+    const LightDesc& light = scene.desc().lights[l];
+    // Per pixel, the direction to a spot or point light differs; count receivers by the truth's own test.
+    TruthComparison c;
+    const std::size_t lights = maps.lightNames.size();
+    for (std::size_t i = 0; i < maps.gbuffer.texels.size(); ++i) {
+      const gpu::GBufferTexel& g = maps.gbuffer.texels[i];
+      if (g.info.w == 0u) continue;
+      const glm::dvec3 p(glm::vec3(g.position));
+      const glm::dvec3 toLight = light.type == LightType::Directional ? -glm::dvec3(light.direction)
+                                                                       : glm::normalize(glm::dvec3(light.position) - p);
+      if (light.type != LightType::Directional && glm::length(glm::dvec3(light.position) - p) > light.range) continue;
+      // A spot light's view covers its cone; outside it the light adds nothing and its maps say lit.
+      if (light.type == LightType::Spot &&
+          glm::dot(-toLight, glm::dvec3(light.direction)) < std::cos(glm::radians(double(light.outerConeDeg))))
+        continue;
+      if (!(glm::dot(glm::dvec3(glm::vec3(g.normal)), toLight) > 0.0)) continue;
+      ++c.receivers;
+      const bool mapLit = maps.shadowTerms[i * lights + l] > 0.5f, trueLit = truth.shadowTerms[i * lights + l] > 0.5f;
+      c.falselyLit += mapLit && !trueLit;
+      c.falselyShadowed += !mapLit && trueLit;
+    }
+    EXPECT_GT(c.receivers, 1000) << light.name;
+ // The demo's sun 0.77%, lamp 0.43%, torch (6 x 512^2) 2.9%.
+    const double bound = light.type == LightType::Point ? 0.03 : light.type == LightType::Spot ? 0.005 : 0.008;
+    EXPECT_LE(c.differing(), bound) << light.name << ": " << c.falselyLit << " falsely lit, " << c.falselyShadowed
+                                    << " falsely shadowed of " << c.receivers;
+    std::printf("demo, %s: %d falsely lit, %d falsely shadowed of %d receivers (%.3f%%)\n", light.name.c_str(),
+                c.falselyLit, c.falselyShadowed, c.receivers, 100.0 * c.differing());
+  }
+}
+
+// Acne: no receiver that the truth says is lit is self-shadowed, with the default biases, on a flat floor, for
+// the sun at 10, 20, ..., 90 degrees. On the staircase terrain a few pixels at concave step corners are
+// (10 of 37,187 at 10 degrees, at most 4 from 20 degrees up): bounded here.
+TEST(LightingTruth, DefaultBiasesGiveNoAcne) {
+  auto tracer = cpuTracer();
+  for (const auto& [name, boxes] : {std::pair{std::string("floor"), test::floorBoxes()},
+                                    std::pair{std::string("terrain"), test::terrainBoxes()}}) {
+    for (int elevation = 10; elevation <= 90; elevation += 10) {
+      const glm::dvec3 sun = test::sunDirection(double(elevation));
+      const fs::path file = sceneOf("acne_" + name, boxes, sun, {}, {}, "e" + std::to_string(elevation));
+      const Scene scene = Scene::load(file);
+      tracer->setScene(scene.data());
+      const RenderedFrame maps = renderWith(scene, *tracer, ShadowSource::Maps);
+      const RenderedFrame truth = renderWith(scene, *tracer, ShadowSource::Raytraced);
+      const TruthComparison c = compareWithTruth(maps, truth, 0, -sun);
+      EXPECT_GT(c.receivers, 10000);
+      const int bound = name == "floor" ? 0 : elevation == 10 ? 12 : 5;
+      EXPECT_LE(c.falselyShadowed, bound) << name << ", sun at " << elevation << " degrees: " << c.falselyShadowed
+                                      << " of " << c.receivers << " lit receivers self-shadowed";
+    }
+  }
+}
+
+namespace {
+
+// 2D distance (x, z) from a world point to the footprint [lo, hi] of a box.
+double footprintDistance(const glm::dvec3& p, const glm::dvec2& lo, const glm::dvec2& hi) {
+  const double dx = std::max({lo.x - p.x, 0.0, p.x - hi.x}), dz = std::max({lo.y - p.z, 0.0, p.z - hi.y});
+  return std::sqrt(dx * dx + dz * dz);
+}
+
+// The floor pixels along the box's base on its shadow side (within 3 voxels) that the maps light and the truth
+// shadows:
+// how far from the footprint the farthest one lies, and how many there are.
+std::pair<double, int> contactGap(const RenderedFrame& maps, const RenderedFrame& truth) {
+  const glm::dvec2 lo(41.5, 41.5), hi(53.5, 53.5);  // voxels 42..53 cover [41.5, 53.5]
+  double farthest = 0.0;
+  int count = 0;
+  for (std::size_t i = 0; i < maps.gbuffer.texels.size(); ++i) {
+    const gpu::GBufferTexel& g = maps.gbuffer.texels[i];
+    if (g.info.w == 0u || g.normal.y < 0.99f || std::abs(g.position.y - 3.5f) > 1e-3f) continue;
+    const glm::dvec3 p(glm::vec3(g.position));
+    const double d = footprintDistance(p, lo, hi);
+    // Beside the two faces the shadow falls from (+x, +z), away from the corners, where the shadow's sides
+    // begin and hard shadows alias along the silhouette instead.
+    const bool besideX = p.x > hi.x && p.z > lo.y + 2.0 && p.z < hi.y - 2.0;
+    const bool besideZ = p.z > hi.y && p.x > lo.x + 2.0 && p.x < hi.x - 2.0;
+    if (d > 3.0 || !(besideX || besideZ)) continue;
+    if (maps.shadowTerms[i] > 0.5f && truth.shadowTerms[i] <= 0.5f) {
+      farthest = std::max(farthest, d);
+      ++count;
+    }
+  }
+  return {farthest, count};
+}
+
+}  // namespace
+
+// Peter-panning: where a box stands on the floor, its shadow reaches within one voxel of the contact edge with
+// the default biases, and all the way with contact shadows.
+TEST(LightingTruth, ShadowsReachTheContactEdge) {
+  auto tracer = cpuTracer();
+  const nlohmann::json closeUp = {{"position", {75, 30, 80}}, {"target", {48, 4, 48}}};
+  for (double elevation : {30.0, 60.0}) {
+    const glm::dvec3 sun = test::sunDirection(elevation, 215.0);  // the shadow falls toward the camera
+    const std::string tag = "e" + std::to_string(int(elevation));
+    const Scene plain = Scene::load(sceneOf("contact", test::floorWithBoxBoxes(), sun, {}, closeUp, tag));
+    const Scene contact = Scene::load(
+        sceneOf("contact", test::floorWithBoxBoxes(), sun, {{"contact_shadow", 2.0}}, closeUp, tag + "_contact"));
+    tracer->setScene(plain.data());
+    const RenderedFrame truth = renderWith(plain, *tracer, ShadowSource::Raytraced);
+    const RenderedFrame maps = renderWith(plain, *tracer, ShadowSource::Maps);
+    tracer->setScene(contact.data());
+    const RenderedFrame withContact = renderWith(contact, *tracer, ShadowSource::Maps);
+    const auto [gap, count] = contactGap(maps, truth);
+    EXPECT_LE(gap, 1.0) << "sun at " << elevation << ": " << count << " floor pixels lit up to " << gap << " voxels out";
+    const auto [contactGapSize, contactCount] = contactGap(withContact, truth);
+    EXPECT_EQ(contactCount, 0) << "sun at " << elevation << ", contact shadows: up to " << contactGapSize;
+    // The contact ray only adds shadow where the truth has it.
+    for (std::size_t i = 0; i < truth.shadowTerms.size(); ++i) {
+      if (withContact.shadowTerms[i] < maps.shadowTerms[i]) {
+        EXPECT_EQ(truth.shadowTerms[i], 0.0f) << i;
+      }
+    }
+  }
+}
+
+// Shimmer: moving the camera by fractions of a texel leaves every cascade layer whose snapped origin stays
+// put bit-identical, a layer that scrolls moves by whole texels, and the shadow term at fixed world points
+// never changes.
+TEST(LightingCascades, SubTexelCameraMotionLeavesLayersAndTermsUnchanged) {
+  const glm::dvec3 sun = test::sunDirection(40.0);
+  const fs::path file = sceneOf("shimmer", test::cityBoxes(), sun, {{"filter", "pcf3"}, {"resolution", 512}});
+  const Scene scene = Scene::load(file);
+  auto tracer = cpuTracer();
+  tracer->setScene(scene.data());
+  const CameraFrame start = cameraFrame(*scene.desc().camera);
+  const std::vector<LightView> views0 = buildLightViews(scene.desc(), scene.worldBounds(), &start);
+  const double step = views0[0].texelWorld / 16.0;
+  std::vector<gpu::TraceView> trace0;
+  for (const LightView& v : views0) trace0.push_back(v.trace);
+  std::vector<ShadowLayer> layers0;
+  tracer->traceShadow(trace0, layers0);
+  const ShadeInputs inputs0 = makeShadeInputs(scene.desc(), views0, layers0, false);
+  FrameRenderer renderer(*tracer);
+  const RenderedFrame frame = renderer.render(scene, {});
+  std::vector<gpu::GBufferTexel> points;
+  for (const gpu::GBufferTexel& g : frame.gbuffer.texels)
+    if (g.info.w != 0u) points.push_back(g);
+  ASSERT_GT(points.size(), 10000u);
+  int identical = 0, scrolled = 0;
+  for (int k = 1; k <= 10; ++k) {
+    CameraFrame moved = start;
+    moved.position += glm::dvec3(step * k, 0.0, -0.5 * step * k);
+    const std::vector<LightView> views = buildLightViews(scene.desc(), scene.worldBounds(), &moved);
+    std::vector<gpu::TraceView> trace;
+    for (const LightView& v : views) trace.push_back(v.trace);
+    std::vector<ShadowLayer> layers;
+    tracer->traceShadow(trace, layers);
+    bool anyScrolled = false;
+    for (std::size_t c = 0; c < views.size(); ++c) {
+      if (views[c].viewProj == views0[c].viewProj && views[c].eye == views0[c].eye) {
+        ++identical;
+        EXPECT_EQ(0, std::memcmp(layers[c].texels.data(), layers0[c].texels.data(), layers0[c].texels.size() * 4))
+            << "step " << k << ", cascade " << c;
+        continue;
+      }
+      // A scroll by whole texels: the same texel contents, shifted.
+      anyScrolled = true;
+      ++scrolled;
+      const glm::dmat3 basis = lightBasis(sun);
+      const glm::dvec3 shift = basis * (views[c].eye - views0[c].eye) / views[c].texelWorld;
+      const int sx = int(std::lround(shift.x)), sy = int(std::lround(-shift.y));  // rows grow downward (flip)
+      EXPECT_NEAR(shift.x, sx, 1e-6);
+      EXPECT_NEAR(shift.y, -sy, 1e-6);
+      const int w = layers[c].width;
+      std::size_t same = 0, compared = 0;
+      for (int y = 0; y < w; ++y)
+        for (int x = 0; x < w; ++x) {
+          const int ox = x + sx, oy = y + sy;
+          if (ox < 0 || oy < 0 || ox >= w || oy >= w) continue;
+          ++compared;
+          same += std::abs(layers[c].texels[std::size_t(y * w + x)] - layers0[c].texels[std::size_t(oy * w + ox)]) <= 1e-6f;
+        }
+      EXPECT_GE(double(same), 0.999 * double(compared)) << "step " << k << ", cascade " << c;
+    }
+    if (anyScrolled) continue;
+    const ShadeInputs inputs = makeShadeInputs(scene.desc(), views, layers, false);
+    for (const gpu::GBufferTexel& g : points) ASSERT_EQ(shadowTermAt(inputs, 0, g), shadowTermAt(inputs0, 0, g)) << k;
+  }
+  EXPECT_GT(identical, 0);
+  std::printf("30 cascade layers over 10 steps of 1/16 texel: %d bit-identical, %d scrolled by whole texels\n",
+              identical, scrolled);
+}
+
+// Seams: at each cascade boundary the shadow term just inside the blend band equals the next cascade's just
+// past it (to 0.05); without a band the two cascades' filters disagree there by more.
+TEST(LightingCascades, BlendBandHidesTheSeams) {
+  const glm::dvec3 sun = test::sunDirection(35.0);
+  auto measure = [&](double blend) {
+    // Close enough that the camera sees the ground on both sides of the boundaries (at about 10 and 26).
+    const fs::path file = sceneOf("seams", test::cityBoxes(), sun,
+                                  {{"filter", "pcf5"}, {"cascade_blend", blend}, {"max_distance", 80}},
+                                  {{"position", {66, 20, 70}}}, "blend" + std::to_string(int(blend * 100)));
+    const Scene scene = Scene::load(file);
+    auto tracer = cpuTracer();
+    tracer->setScene(scene.data());
+    FrameRenderer renderer(*tracer);
+    const RenderedFrame frame = renderer.render(scene, {});
+    const ShadeInputs inputs = makeShadeInputs(scene.desc(), frame.views, renderer.layers(), false);
+    double worst = 0.0;
+    std::size_t probed = 0;
+    for (std::size_t c = 0; c + 1 < frame.views.size(); ++c) {
+      const double boundary = frame.views[c].splitFar;
+      for (gpu::GBufferTexel g : frame.gbuffer.texels) {
+        // Points the camera sees near the boundary: inside both cascades' spheres.
+        if (g.info.w == 0u || std::abs(double(g.position.w) - boundary) > 0.05 * boundary) continue;
+        ++probed;
+        g.position.w = float(boundary * (1.0 - 1e-6));
+        const float inside = shadowTermAt(inputs, 0, g);
+        g.position.w = float(boundary * (1.0 + 1e-6));
+        const float past = shadowTermAt(inputs, 0, g);
+        worst = std::max(worst, double(std::abs(inside - past)));
+      }
+    }
+    EXPECT_GT(probed, 1000u);
+    return worst;
+  };
+  const double blended = measure(0.1), unblended = measure(0.0);
+  EXPECT_LE(blended, 0.05);
+  EXPECT_GT(unblended, 0.05);
+  std::printf("largest shadow-term step across a cascade boundary: %.4f with a 10%% band, %.4f without\n", blended,
+              unblended);
+}
