@@ -119,19 +119,28 @@ gpu::ShadePush makeShadePush(const SceneDesc& scene, int width, int height, int 
   return push;
 }
 
-ShadeOutput shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
-                       std::span<const std::uint32_t> rayVisibility) {
+std::span<const std::uint32_t> checkShadeSizes(const ShadeInputs& inputs, const gpu::ShadePush& push,
+                                               const GBuffer& gbuffer, std::span<const std::uint32_t> rayVisibility,
+                                               std::vector<std::uint32_t>& clear) {
   const std::size_t pixels = std::size_t(push.size.x) * std::size_t(push.size.y);
   const std::size_t lights = inputs.lights.size();
   if (gbuffer.texels.size() != pixels || std::size_t(push.size.z) != lights)
     throwBadInput("lighting: the G-buffer, the push block and the lights disagree on sizes");
   // Lights that need no ray read a clear answer.
-  std::vector<std::uint32_t> clear;
   if (rayVisibility.empty()) {
     clear.assign(pixels * lights, 1u);
     rayVisibility = clear;
   }
   if (rayVisibility.size() != pixels * lights) throwBadInput("lighting: one visibility answer per pixel and light expected");
+  return rayVisibility;
+}
+
+ShadeOutput shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
+                       std::span<const std::uint32_t> rayVisibility) {
+  std::vector<std::uint32_t> clear;
+  rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
+  const std::size_t pixels = gbuffer.texels.size();
+  const std::size_t lights = inputs.lights.size();
   ShadeOutput out;
   out.color.resize(pixels);
   out.shadowTerms.resize(pixels * lights);

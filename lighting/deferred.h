@@ -46,6 +46,13 @@ struct ShadeOutput {
 ShadeOutput shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                        std::span<const std::uint32_t> rayVisibility);
 
+// The checks both passes make: the G-buffer, the push block and the lights agree on sizes, and there is one
+// visibility answer per pixel and light; returns those answers, or all-clear ones (kept in `clear`) when none
+// were given. Throws vs::Error(BadInput) on a mismatch.
+std::span<const std::uint32_t> checkShadeSizes(const ShadeInputs& inputs, const gpu::ShadePush& push,
+                                               const GBuffer& gbuffer, std::span<const std::uint32_t> rayVisibility,
+                                               std::vector<std::uint32_t>& clear);
+
 // The shadow term of light `light` at one G-buffer texel, as the pass computes it (for tests and tools that
 // probe fixed world points). visibility: that pixel's ray answer (1: clear).
 float shadowTermAt(const ShadeInputs& inputs, std::size_t light, const gpu::GBufferTexel& texel,

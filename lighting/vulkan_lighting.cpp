@@ -101,16 +101,10 @@ struct VulkanLighting::Impl {
 
   ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                     std::span<const std::uint32_t> rayVisibility) {
-    const std::size_t pixels = std::size_t(push.size.x) * std::size_t(push.size.y);
-    const std::size_t lights = inputs.lights.size();
-    if (gbuffer.texels.size() != pixels || std::size_t(push.size.z) != lights)
-      throwBadInput("lighting: the G-buffer, the push block and the lights disagree on sizes");
     std::vector<std::uint32_t> clear;
-    if (rayVisibility.empty()) {
-      clear.assign(pixels * lights, 1u);
-      rayVisibility = clear;
-    }
-    if (rayVisibility.size() != pixels * lights) throwBadInput("lighting: one visibility answer per pixel and light expected");
+    rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
+    const std::size_t pixels = gbuffer.texels.size();
+    const std::size_t lights = inputs.lights.size();
     // A replaced buffer needs its descriptor rewritten; a kept one is written over in place.
     bool replaced = !buffers[0].buffer;
     auto sized = [&](std::uint32_t b, std::size_t bytes) { replaced = reserve(b, bytes) || replaced; };

@@ -679,7 +679,17 @@ TEST(VdbLoad, PersistentCheckingProcessGivesTheSameVerdicts) {
   int crashes = 0;
   for (std::size_t i = 0; i < files.size(); ++i) {
     const std::string got = outcomeOf(files[i]);
-    EXPECT_EQ(got, forked[i]) << files[i];
+    // The crash file overruns a heap buffer inside OpenVDB: which signal ends the checking process (SIGSEGV,
+    // SIGABRT from malloc's checks) depends on what the overrun hits, so the verdicts are compared without it.
+    auto withoutSignal = [](std::string text) {
+      const std::string marker = "(it crashed with SIG";
+      if (std::size_t at = text.find(marker); at != std::string::npos) {
+        const std::size_t end = text.find(' ', at + marker.size());
+        text.replace(at, end - at, "(it crashed with a signal");
+      }
+      return text;
+    };
+    EXPECT_EQ(withoutSignal(got), withoutSignal(forked[i])) << files[i];
     if (files[i] == crash) {
       ++crashes;
       EXPECT_TRUE(vs::test::contains(got, crash + ": damaged VDB file: OpenVDB's reader failed on grid 0 "

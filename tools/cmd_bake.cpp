@@ -56,14 +56,6 @@ struct VulkanBakeStats {
   double wallMs = 0.0;
 };
 
-VulkanOptions vulkanOptions(const std::string& device) {
-  VulkanOptions o;
-  if (device.empty()) return o;
-  if (device.find_first_not_of("0123456789") == std::string::npos && device.size() < 9) o.deviceIndex = std::stoi(device);
-  else o.deviceName = device;
-  return o;
-}
-
 // Largest image array one trace call fills: big enough that a bake of many views needs few submissions, small
 // enough that the image and its readback stay a modest share of any device's memory.
 constexpr std::uint64_t kBatchBytes = 1ull << 30;
@@ -103,14 +95,6 @@ void checkDeviceFits(const Scene& scene, const std::vector<LightView>& views, co
   }
 }
 
-std::unique_ptr<Tracer> openVulkan(const std::string& device) {
-  try {
-    return makeVulkanTracer(vulkanOptions(device));
-  } catch (const Error& e) {
-    if (e.kind() != ErrorKind::Runtime) throw;
-    throwRuntime(std::string(e.what()) + " (to trace without Vulkan, use --backend cpu)");
-  }
-}
 
 // Views of one size are traced together, in batches of viewsPerBatch (one submission and one readback
 // each); views of different sizes go in separate calls, so the image array is never padded to the largest.
@@ -205,6 +189,39 @@ BakedView toBaked(const LightView& v, ShadowLayer&& layer) {
 
 }  // namespace
 
+void checkCommandOutputs(const SceneDesc& scene, const std::vector<std::filesystem::path>& outputs,
+                         std::size_t maxFirstNameBytes) {
+  std::vector<std::filesystem::path> inputs = {scene.file};
+  std::vector<std::string> inputWhat = {"scene"};
+  for (const AssetDesc& a : scene.assets) {
+    inputs.push_back(a.file);
+    inputWhat.push_back("asset '" + a.name + "'");
+  }
+  refuseOutputsOverInputs(outputs, inputs, inputWhat);
+  for (std::size_t i = 0; i < outputs.size(); ++i) checkOutputDirectory(outputs[i], i == 0 ? maxFirstNameBytes : 255);
+}
+
+namespace {
+
+VulkanOptions vulkanOptions(const std::string& device) {
+  VulkanOptions o;
+  if (device.empty()) return o;
+  if (device.find_first_not_of("0123456789") == std::string::npos && device.size() < 9) o.deviceIndex = std::stoi(device);
+  else o.deviceName = device;
+  return o;
+}
+
+}  // namespace
+
+std::unique_ptr<Tracer> openVulkanBackend(const std::string& device) {
+  try {
+    return makeVulkanTracer(vulkanOptions(device));
+  } catch (const Error& e) {
+    if (e.kind() != ErrorKind::Runtime) throw;
+    throwRuntime(std::string(e.what()) + " (to trace without Vulkan, use --backend cpu)");
+  }
+}
+
 void runBake(const BakeOptions& options) {
   // Every check of the user's paths comes before the scene is loaded or traced.
   if (options.output.extension() != ".exr")
@@ -222,15 +239,7 @@ void runBake(const BakeOptions& options) {
   SceneDesc desc = parseSceneFile(options.scene);
   std::vector<std::filesystem::path> outputs = {options.output, sidecarPath(options.output)};
   if (options.preview) outputs.push_back(*options.preview);
-  std::vector<std::filesystem::path> inputs = {options.scene};
-  std::vector<std::string> inputWhat = {"scene"};
-  for (const AssetDesc& a : desc.assets) {
-    inputs.push_back(a.file);
-    inputWhat.push_back("asset '" + a.name + "'");
-  }
-  refuseOutputsOverInputs(outputs, inputs, inputWhat);
-  checkOutputDirectory(options.output, kMaxShadowFileNameBytes);
-  if (options.preview) checkOutputDirectory(*options.preview);
+  checkCommandOutputs(desc, outputs, kMaxShadowFileNameBytes);
 
   Scene scene = Scene::load(std::move(desc));
   double loadSeconds = secondsSince(t0);
@@ -245,7 +254,7 @@ void runBake(const BakeOptions& options) {
     std::unique_ptr<Tracer> tracer = makeCpuTracer({CpuTracePath::Interleaved, options.threads});
     layers = traceInBands(scene, views, *tracer);
   } else {
-    std::unique_ptr<Tracer> tracer = openVulkan(options.device);
+    std::unique_ptr<Tracer> tracer = openVulkanBackend(options.device);
     const VulkanDeviceInfo& device = tracer->vulkan()->device();
     checkDeviceFits(scene, views, device);
     checkHostMemory(scene, views, options, &device);

@@ -60,15 +60,8 @@ void runRender(const RenderCommandOptions& options) {
 
   SceneDesc desc = parseSceneFile(options.scene);
   if (!desc.camera) throwBadInput(options.scene.string() + ": camera: missing; `render` draws the scene from its camera");
-  std::vector<std::filesystem::path> outputs = {options.output};
-  std::vector<std::filesystem::path> inputs = {options.scene};
-  std::vector<std::string> inputWhat = {"scene"};
-  for (const AssetDesc& a : desc.assets) {
-    inputs.push_back(a.file);
-    inputWhat.push_back("asset '" + a.name + "'");
-  }
-  refuseOutputsOverInputs(outputs, inputs, inputWhat);
-  checkOutputDirectory(options.output);
+  const std::vector<std::filesystem::path> outputs = {options.output};
+  checkCommandOutputs(desc, outputs);
 
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
@@ -77,19 +70,7 @@ void runRender(const RenderCommandOptions& options) {
   if (options.backend == "cpu") {
     tracer = makeCpuTracer({CpuTracePath::Interleaved, options.threads});
   } else {
-    VulkanOptions vo;
-    if (!options.device.empty()) {
-      if (options.device.find_first_not_of("0123456789") == std::string::npos && options.device.size() < 9)
-        vo.deviceIndex = std::stoi(options.device);
-      else
-        vo.deviceName = options.device;
-    }
-    try {
-      tracer = makeVulkanTracer(vo);
-    } catch (const Error& e) {
-      if (e.kind() != ErrorKind::Runtime) throw;
-      throwRuntime(std::string(e.what()) + " (to render without Vulkan, use --backend cpu)");
-    }
+    tracer = openVulkanBackend(options.device);
   }
   Progress progress("rendering (" + tracer->deviceName() + ")");
   progress.update(0, 3);

@@ -5,11 +5,18 @@
 
 #include <filesystem>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
+
+namespace vs {
+class Tracer;
+struct SceneDesc;
+}
 
 namespace vs::cli {
 
@@ -50,6 +57,16 @@ struct RenderCommandOptions {
 // The render shared by `render` and `demo`. Preconditions: none; bad options, paths and scenes throw
 // vs::Error(BadInput) before any tracing, and a failure leaves no output file.
 void runRender(const RenderCommandOptions& options);
+
+// Refuses (vs::Error(BadInput), before any work) outputs that would overwrite the scene file or one of its
+// assets (refuseOutputsOverInputs), and checks each output's directory (checkOutputDirectory; the first output
+// with maxFirstNameBytes).
+void checkCommandOutputs(const SceneDesc& scene, const std::vector<std::filesystem::path>& outputs,
+                         std::size_t maxFirstNameBytes = 255);
+
+// The Vulkan backend on `device` (digits: an index; else part of a name; empty: the best). No usable device is
+// vs::Error(Runtime) with the hint to use --backend cpu.
+std::unique_ptr<Tracer> openVulkanBackend(const std::string& device);
 
 // Prints every Vulkan device (vs::listVulkanDevices order) with the limits the trace depends on, as text or
 // one JSON array. Throws vs::Error(Runtime) when Vulkan cannot start; prints an empty list when it has no device.
