@@ -65,7 +65,10 @@ ShadeInputs makeShadeInputs(const SceneDesc& scene, std::span<const LightView> v
                     std::to_string(layer.height) + ", its view " + std::to_string(v.resolution) + " square");
     gpu::ShadeView sv{};
     sv.eyeToClip = glm::mat4(v.eyeToClip);
-    sv.eye = glm::vec4(glm::vec3(v.eye), float(v.texelWorld));
+    sv.clipToEye = v.trace.clipToEye;
+    sv.eye = glm::vec4(glm::vec3(v.trace.eyeHigh), float(v.texelWorld));
+    sv.eyeLow = glm::vec4(glm::vec3(v.trace.eyeLow), 0.0f);
+    sv.trace = glm::ivec4(v.depthPoint, 0, 0, 0);
     // World units per unit of encoded depth: an orthographic view's NDC depth is linear in the distance along
     // the light, at the rate of its projection's z row.
     double depthScale = 1.0;

@@ -60,13 +60,14 @@ struct ShadowDesc {
   float maxDistance = 1000.0f;  // default: the camera's far plane
   ShadowFilter filter = ShadowFilter::Pcf3;
   float depthBias = 0.0f;   // world units
-  // Texels along the surface normal. 1.5 moves a receiver on a face the light grazes out of every texel
-  // that the face itself covers (a texel's diagonal is 1.41), so grazing faces do not shadow themselves.
-  float normalBias = 1.5f;
-  // Texels along the light, divided by max(N.L, 0.05): one texel at N.L = 1 covers a receiver up to a
-  // texel's half-diagonal from the texel's own ray on a tilted face (the depth there differs by that
-  // distance times tan of the tilt, which the division follows).
-  float slopeBias = 1.0f;
+  // Layers of entry depths are compared at each texel's own ray against the receiver's plane, which a voxel
+  // face is exactly (lighting/shared/shading.h), so the biases cover rounding and concave corners, not the
+  // depth slope across a texel. Texels along the surface normal: moves the plane off the face.
+  float normalBias = 0.5f;
+  // Texels along the light, divided by max(N.L, 0.05): where a texel's ray meets the receiver's plane just
+  // past a concave corner, inside the solid, the neighbouring face stands in front of it by an amount that
+  // grows as the receiver turns from the light.
+  float slopeBias = 0.5f;
   // pcss: the emitter's diameter in world units (a directional light's emitter lies on its view's near plane).
   float lightSize = 0.5f;
   // World length of the exact visibility ray toward the light that multiplies into the shadow-map term

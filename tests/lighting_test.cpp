@@ -57,10 +57,67 @@ TruthComparison compareWithTruth(const RenderedFrame& maps, const RenderedFrame&
   return c;
 }
 
-Scene loadWithFilter(const fs::path& file, ShadowFilter filter) {
+RenderedFrame renderWithLayers(const Scene& scene, Tracer& tracer, std::vector<ShadowLayer>& layers) {
+  FrameRenderer renderer(tracer);
+  RenderOptions options;
+  options.shadows = ShadowSource::Maps;
+  RenderedFrame frame = renderer.render(scene, options);
+  layers = renderer.layers();
+  return frame;
+}
+
+enum class FalseShadow { SelfShadowed, BesideAnEdge };
+
+bool insideBoxes(const test::VoxelBoxSet& set, const glm::dvec3& q) {
+  for (const auto& [lo, hi] : set.boxes)  // voxel i spans [i - 0.5, i + 0.5]
+    if (q.x > lo.x - 0.5 && q.x < hi.x + 0.5 && q.y > lo.y - 0.5 && q.y < hi.y + 0.5 && q.z > lo.z - 0.5 &&
+        q.z < hi.z + 0.5)
+      return true;
+  return false;
+}
+
+// Why the maps shadow a receiver that the truth lights (hard filter, a directional light), found apart from
+// the shading code and in double: the cascade by the view depth and the lateral check, the texel that the
+// filter reads, its ray rebuilt from the view's stored matrix, and where that ray meets the receiver's plane.
+// Self-shadowed: the texel's hit lies on the receiver's plane (a bias too small for its depth), or the ray meets
+// the plane inside the solid (at a concave corner, where the neighbouring face answers for the receiver).
+// Beside an edge: the ray meets the plane at a real surface point and a caster in front of that point shadows
+// it, rightly; the receiver lies within the texel of that shadow's edge (aliasing, which the agreement test
+// bounds). In a cascade blend band both cascades' texels are read; either one self-shadowed counts.
+FalseShadow whyShadowed(const RenderedFrame& frame, const std::vector<ShadowLayer>& layers,
+                        const test::VoxelBoxSet& solid, std::size_t pixel) {
+  const gpu::GBufferTexel& g = frame.gbuffer.texels[pixel];
+  const glm::dvec3 p(glm::vec3(g.position)), n(glm::vec3(g.normal));
+  const double viewDepth = g.position.w, voxel = g.normal.w;
+  bool self = false, chosen = false;
+  for (std::size_t v = 0; v < frame.views.size() && !chosen; ++v) {
+    const LightView& view = frame.views[v];
+    if (view.cascade >= 0 && !(viewDepth >= view.splitNear && viewDepth < view.splitFar)) continue;
+    const glm::dvec4 clip = view.eyeToClip * glm::dvec4(p - view.eye, 1.0);
+    const glm::dvec2 texel = (glm::dvec2(clip) / clip.w * 0.5 + 0.5) * double(view.resolution);
+    if (texel.x < 0.5 || texel.y < 0.5 || texel.x > view.resolution - 0.5 || texel.y > view.resolution - 0.5) continue;
+    chosen = !(view.cascade >= 0 && viewDepth > view.splitFar - 0.1 * (view.splitFar - view.splitNear));
+    const int tx = int(std::floor(texel.x)), ty = int(std::floor(texel.y));
+    const float stored = layers[v].texels[std::size_t(ty) * std::size_t(view.resolution) + std::size_t(tx)];
+    if (stored >= view.range) continue;
+    const glm::dmat4 clipToEye = glm::inverse(view.eyeToClip);
+    const double nx = (tx + 0.5) / view.resolution * 2.0 - 1.0, ny = (ty + 0.5) / view.resolution * 2.0 - 1.0;
+    const glm::dvec4 nearH = clipToEye * glm::dvec4(nx, ny, 0.0, 1.0), farH = clipToEye * glm::dvec4(nx, ny, 1.0, 1.0);
+    const glm::dvec3 start = view.eye + glm::dvec3(nearH) / nearH.w, d = view.eye + glm::dvec3(farH) / farH.w - start;
+    const glm::dvec3 hit = start + double(stored) * d;
+    const glm::dvec3 onPlane = start + (glm::dot(n, p - start) / glm::dot(n, d)) * d;
+    if (glm::dot(n, hit - p) < 0.01 * voxel || insideBoxes(solid, onPlane + n * (0.01 * voxel))) self = true;
+  }
+  return self ? FalseShadow::SelfShadowed : FalseShadow::BesideAnEdge;
+}
+
+Scene loadWithFilter(const fs::path& file, ShadowFilter filter, int minResolution = 0) {
   SceneDesc desc = parseSceneFile(file);
   for (LightDesc& l : desc.lights)
-    if (l.shadow) l.shadow->filter = filter;
+    if (l.shadow) {
+      l.shadow->filter = filter;
+      l.shadow->resolution = std::max(l.shadow->resolution, minResolution);
+    }
   return Scene::load(std::move(desc));
 }
 
@@ -135,10 +192,8 @@ TEST(Cascades, SceneWithACameraBakesCascadeLayersAndOthersKeepTheirs) {
   EXPECT_EQ(views.back().splitFar, 160.0);  // max_distance, nearer than the camera's far plane
 }
 
-// Agreement with the ray-traced truth, with the hard filter and at least one shadow texel per pixel. The
-// bounds are what the shading code achieves today (printed below), held so that they cannot get worse: the
-// city stays within 0.6% of receivers (0.54% at 20 degrees, 0.25% at 45, 0.10% at 70); the errors lie along
-// shadow edges, a texel wide.
+// Agreement with the ray-traced truth, with the hard filter and at least one shadow texel per pixel: at most
+// 0.5% of receivers differ (the errors lie along shadow edges, within a texel of them).
 TEST(LightingTruth, CityAtThreeElevationsAgreesWithRayTracedShadows) {
   auto tracer = cpuTracer();
   for (double elevation : {20.0, 45.0, 70.0}) {
@@ -151,73 +206,170 @@ TEST(LightingTruth, CityAtThreeElevationsAgreesWithRayTracedShadows) {
     const RenderedFrame truth = renderWith(scene, *tracer, ShadowSource::Raytraced);
     const TruthComparison c = compareWithTruth(maps, truth, 0, -sun);
     EXPECT_GT(c.receivers, 30000);
-    EXPECT_LE(c.differing(), 0.006) << "elevation " << elevation << ": " << c.falselyLit << " falsely lit, "
+    EXPECT_LE(c.differing(), 0.005) << "elevation " << elevation << ": " << c.falselyLit << " falsely lit, "
                                     << c.falselyShadowed << " falsely shadowed of " << c.receivers;
     std::printf("city, sun at %.0f deg: %d falsely lit, %d falsely shadowed of %d receivers (%.3f%%)\n", elevation,
                 c.falselyLit, c.falselyShadowed, c.receivers, 100.0 * c.differing());
   }
 }
 
+namespace {
+
+// How many of light `light`'s shadow texels fall on the surface that pixel g shows: the pixel's footprint on the
+// surface over a texel's (both grow as their rays graze it), with the texel of the view that covers g (the
+// cascade holding its view depth; spot and point texels grow with the distance from the light).
+double texelsPerPixel(const RenderedFrame& frame, const CameraFrame& camera, int light, const gpu::GBufferTexel& g,
+                      const glm::dvec3& toLight) {
+  const glm::dvec3 p(glm::vec3(g.position)), n(glm::vec3(g.normal));
+  double texel = 0.0;
+  for (const LightView& view : frame.views) {
+    if (view.lightIndex != light) continue;
+    if (view.cascade >= 0 && !(g.position.w >= view.splitNear && g.position.w < view.splitFar)) continue;
+    texel = view.encoding == gpu::VS_ENCODING_NDC_DEPTH ? view.texelWorld : view.texelWorld * glm::length(view.eye - p);
+    break;
+  }
+  if (texel <= 0.0) return 0.0;
+  const double pixel = 2.0 * camera.tanHalfFovY * g.position.w / camera.height;
+  const double facingCamera = std::abs(glm::dot(n, glm::normalize(camera.position - p)));
+  const double facingLight = glm::dot(n, toLight);
+  return (pixel * pixel / facingCamera) / (texel * texel / facingLight);
+}
+
+}  // namespace
+
+// The demo scene at 640 x 360, hard-filtered: its own layers (sun cascades 2048^2, lamp 1024^2, torch
+// 6 x 512^2), and every layer raised to at least 1024^2. At 512^2 the torch's texels near the end of its range
+// are about as large as the pixels along the light's direction on the floor it grazes, and its many long edges
+// alias by 0.5 to 0.65% depending on the frame size (0.49% at this one); it is held to 0.7% there and to the
+// bar at 1024^2.
 TEST(LightingTruth, DemoSceneAgreesWithRayTracedShadows) {
   const fs::path dir = test::scratchDir("truth_demo");
   const std::vector<std::string> written = writeDemoWorld(dir);
-  const Scene scene = loadWithFilter(written.back(), ShadowFilter::Hard);
+  const int width = 640, height = 360;
   auto tracer = cpuTracer();
-  tracer->setScene(scene.data());
-  // 640 x 360: at least one shadow texel per pixel in every cascade the camera sees.
-  const RenderedFrame maps = renderWith(scene, *tracer, ShadowSource::Maps, 640, 360);
-  const RenderedFrame truth = renderWith(scene, *tracer, ShadowSource::Raytraced, 640, 360);
-  for (std::size_t l = 0; l < scene.desc().lights.size(); ++l) {
-    const LightDesc& light = scene.desc().lights[l];
-    // Per pixel, the direction to a spot or point light differs; count receivers by the truth's own test.
-    TruthComparison c;
-    const std::size_t lights = maps.lightNames.size();
-    for (std::size_t i = 0; i < maps.gbuffer.texels.size(); ++i) {
-      const gpu::GBufferTexel& g = maps.gbuffer.texels[i];
-      if (g.info.w == 0u) continue;
-      const glm::dvec3 p(glm::vec3(g.position));
-      const glm::dvec3 toLight = light.type == LightType::Directional ? -glm::dvec3(light.direction)
-                                                                       : glm::normalize(glm::dvec3(light.position) - p);
-      if (light.type != LightType::Directional && glm::length(glm::dvec3(light.position) - p) > light.range) continue;
-      // A spot light's view covers its cone; outside it the light adds nothing and its maps say lit.
-      if (light.type == LightType::Spot &&
-          glm::dot(-toLight, glm::dvec3(light.direction)) < std::cos(glm::radians(double(light.outerConeDeg))))
-        continue;
-      if (!(glm::dot(glm::dvec3(glm::vec3(g.normal)), toLight) > 0.0)) continue;
-      ++c.receivers;
-      const bool mapLit = maps.shadowTerms[i * lights + l] > 0.5f, trueLit = truth.shadowTerms[i * lights + l] > 0.5f;
-      c.falselyLit += mapLit && !trueLit;
-      c.falselyShadowed += !mapLit && trueLit;
+  const Scene own = loadWithFilter(written.back(), ShadowFilter::Hard);
+  tracer->setScene(own.data());
+  const RenderedFrame truth = renderWith(own, *tracer, ShadowSource::Raytraced, width, height);
+  const CameraFrame camera = cameraFrame(*own.desc().camera, width, height);
+  for (int minResolution : {0, 1024}) {
+    const Scene scene = loadWithFilter(written.back(), ShadowFilter::Hard, minResolution);
+    tracer->setScene(scene.data());
+    const RenderedFrame maps = renderWith(scene, *tracer, ShadowSource::Maps, width, height);
+    for (std::size_t l = 0; l < scene.desc().lights.size(); ++l) {
+      const LightDesc& light = scene.desc().lights[l];
+      // Per pixel, the direction to a spot or point light differs; count receivers by the truth's own test.
+      // Receivers with less than one shadow texel per pixel (the far cascade, or lit at a grazing angle) are
+      // counted apart: the bar holds where the layers resolve what the pixels show.
+      TruthComparison c, sparse;
+      const std::size_t lights = maps.lightNames.size();
+      for (std::size_t i = 0; i < maps.gbuffer.texels.size(); ++i) {
+        const gpu::GBufferTexel& g = maps.gbuffer.texels[i];
+        if (g.info.w == 0u) continue;
+        const glm::dvec3 p(glm::vec3(g.position));
+        const glm::dvec3 toLight = light.type == LightType::Directional ? -glm::dvec3(light.direction)
+                                                                         : glm::normalize(glm::dvec3(light.position) - p);
+        if (light.type != LightType::Directional && glm::length(glm::dvec3(light.position) - p) > light.range) continue;
+        // A spot light's view covers its cone; outside it the light adds nothing and its maps say lit.
+        if (light.type == LightType::Spot &&
+            glm::dot(-toLight, glm::dvec3(light.direction)) < std::cos(glm::radians(double(light.outerConeDeg))))
+          continue;
+        if (!(glm::dot(glm::dvec3(glm::vec3(g.normal)), toLight) > 0.0)) continue;
+        const bool mapLit = maps.shadowTerms[i * lights + l] > 0.5f, trueLit = truth.shadowTerms[i * lights + l] > 0.5f;
+        TruthComparison& counted = texelsPerPixel(maps, camera, int(l), g, toLight) >= 1.0 ? c : sparse;
+        ++counted.receivers;
+        counted.falselyLit += mapLit && !trueLit;
+        counted.falselyShadowed += !mapLit && trueLit;
+      }
+      const double bound = minResolution == 0 && light.type == LightType::Point ? 0.007 : 0.005;
+      EXPECT_GT(c.receivers, 1000) << light.name;
+      EXPECT_LE(c.differing(), bound) << light.name << ", layers of at least " << minResolution << ": " << c.falselyLit
+                                      << " falsely lit, " << c.falselyShadowed << " falsely shadowed of " << c.receivers;
+      std::printf("demo, %s, layers of at least %d: %d falsely lit, %d falsely shadowed of %d receivers (%.3f%%); "
+                  "below one texel per pixel: %d of %d (%.3f%%)\n",
+                  light.name.c_str(), minResolution, c.falselyLit, c.falselyShadowed, c.receivers,
+                  100.0 * c.differing(), sparse.falselyLit + sparse.falselyShadowed, sparse.receivers,
+                  100.0 * sparse.differing());
     }
-    EXPECT_GT(c.receivers, 1000) << light.name;
- // The demo's sun 0.77%, lamp 0.43%, torch (6 x 512^2) 2.9%.
-    const double bound = light.type == LightType::Point ? 0.03 : light.type == LightType::Spot ? 0.005 : 0.008;
-    EXPECT_LE(c.differing(), bound) << light.name << ": " << c.falselyLit << " falsely lit, " << c.falselyShadowed
-                                    << " falsely shadowed of " << c.receivers;
-    std::printf("demo, %s: %d falsely lit, %d falsely shadowed of %d receivers (%.3f%%)\n", light.name.c_str(),
-                c.falselyLit, c.falselyShadowed, c.receivers, 100.0 * c.differing());
   }
 }
 
-// Acne: no receiver that the truth says is lit is self-shadowed, with the default biases, on a flat floor, for
-// the sun at 10, 20, ..., 90 degrees. On the staircase terrain a few pixels at concave step corners are
-// (10 of 37,187 at 10 degrees, at most 4 from 20 degrees up): bounded here.
+namespace {
+
+struct FalseShadows {
+  int receivers = 0, selfShadowed = 0, besideEdges = 0;
+};
+
+// The receivers that the maps (hard filter) shadow and the truth lights, by why (whyShadowed).
+FalseShadows falseShadows(const Scene& scene, Tracer& tracer, const test::VoxelBoxSet& boxes, const glm::dvec3& sun) {
+  tracer.setScene(scene.data());
+  std::vector<ShadowLayer> layers;
+  const RenderedFrame maps = renderWithLayers(scene, tracer, layers);
+  const RenderedFrame truth = renderWith(scene, tracer, ShadowSource::Raytraced);
+  const TruthComparison c = compareWithTruth(maps, truth, 0, -sun);
+  FalseShadows f;
+  f.receivers = c.receivers;
+  for (std::size_t i = 0; i < maps.gbuffer.texels.size(); ++i) {
+    const gpu::GBufferTexel& g = maps.gbuffer.texels[i];
+    if (g.info.w == 0u || !(glm::dot(glm::dvec3(glm::vec3(g.normal)), -sun) > 0.0)) continue;
+    if (!(maps.shadowTerms[i] < 0.5f && truth.shadowTerms[i] > 0.5f)) continue;
+    if (whyShadowed(maps, layers, boxes, i) == FalseShadow::SelfShadowed) ++f.selfShadowed;
+    else ++f.besideEdges;
+  }
+  EXPECT_EQ(f.selfShadowed + f.besideEdges, c.falselyShadowed);
+  return f;
+}
+
+}  // namespace
+
+// Acne: no receiver that the truth says is lit is shadowed by its own surface, with the default biases, on a
+// flat floor and on a staircase terrain, for the sun at 10, 20, ..., 90 degrees. Receivers that the maps
+// shadow and the truth lights are either self-shadowed (the texel they read hit their own plane, or met it
+// inside the solid at a concave corner) or lie within a texel of a real shadow's edge (edge aliasing, which the
+// agreement tests bound): the first kind is acne and must not occur; the second is counted and bounded here
+// too, so that it stays a thin line. Without biases the same count finds acne everywhere: it can fail.
 TEST(LightingTruth, DefaultBiasesGiveNoAcne) {
   auto tracer = cpuTracer();
   for (const auto& [name, boxes] : {std::pair{std::string("floor"), test::floorBoxes()},
                                     std::pair{std::string("terrain"), test::terrainBoxes()}}) {
     for (int elevation = 10; elevation <= 90; elevation += 10) {
       const glm::dvec3 sun = test::sunDirection(double(elevation));
-      const fs::path file = sceneOf("acne_" + name, boxes, sun, {}, {}, "e" + std::to_string(elevation));
-      const Scene scene = Scene::load(file);
+      const Scene scene = Scene::load(sceneOf("acne_" + name, boxes, sun, {}, {}, "e" + std::to_string(elevation)));
+      const FalseShadows f = falseShadows(scene, *tracer, boxes, sun);
+      EXPECT_GT(f.receivers, 10000);
+      EXPECT_EQ(f.selfShadowed, 0) << name << ", sun at " << elevation << " degrees: " << f.selfShadowed << " of "
+                                   << f.receivers << " lit receivers shadowed by their own surface";
+      // Edge aliasing: under 1% of the receivers (the terrain's step edges at 10 degrees: 0.9%); none on the floor.
+      EXPECT_LE(f.besideEdges, name == "floor" ? 0 : f.receivers / 100) << name << ", sun at " << elevation;
+      std::printf("%s, sun at %d deg: %d self-shadowed, %d beside shadow edges, of %d receivers\n", name.c_str(),
+                  elevation, f.selfShadowed, f.besideEdges, f.receivers);
+    }
+  }
+  const glm::dvec3 sun = test::sunDirection(30.0);
+  const Scene unbiased = Scene::load(sceneOf("acne_terrain", test::terrainBoxes(), sun,
+                                             {{"normal_bias", 0}, {"slope_bias", 0}}, {}, "unbiased"));
+  const FalseShadows f = falseShadows(unbiased, *tracer, test::terrainBoxes(), sun);
+  EXPECT_GT(f.selfShadowed, f.receivers / 20) << "without biases, rounding alone shadows a face with itself";
+}
+
+// The flat floor, which casts no shadow on itself, stays lit under every filter with the default biases.
+TEST(LightingTruth, EveryFilterLeavesTheFloorLit) {
+  auto tracer = cpuTracer();
+  for (const char* filter : {"pcf3", "pcf5", "poisson16", "pcss"}) {
+    for (int elevation = 10; elevation <= 90; elevation += 20) {
+      const glm::dvec3 sun = test::sunDirection(double(elevation));
+      const Scene scene = Scene::load(sceneOf("acne_floor", test::floorBoxes(), sun, {{"filter", filter}}, {},
+                                              std::string(filter) + "_e" + std::to_string(elevation)));
       tracer->setScene(scene.data());
       const RenderedFrame maps = renderWith(scene, *tracer, ShadowSource::Maps);
-      const RenderedFrame truth = renderWith(scene, *tracer, ShadowSource::Raytraced);
-      const TruthComparison c = compareWithTruth(maps, truth, 0, -sun);
-      EXPECT_GT(c.receivers, 10000);
-      const int bound = name == "floor" ? 0 : elevation == 10 ? 12 : 5;
-      EXPECT_LE(c.falselyShadowed, bound) << name << ", sun at " << elevation << " degrees: " << c.falselyShadowed
-                                      << " of " << c.receivers << " lit receivers self-shadowed";
+      int receivers = 0, shadowed = 0;
+      for (std::size_t i = 0; i < maps.gbuffer.texels.size(); ++i) {
+        const gpu::GBufferTexel& g = maps.gbuffer.texels[i];
+        if (g.info.w == 0u || g.normal.y < 0.99f) continue;
+        ++receivers;
+        shadowed += maps.shadowTerms[i] < 1.0f;
+      }
+      EXPECT_GT(receivers, 10000);
+      EXPECT_EQ(shadowed, 0) << filter << ", sun at " << elevation << " degrees";
     }
   }
 }
@@ -374,8 +526,10 @@ TEST(LightingCascades, BlendBandHidesTheSeams) {
     for (std::size_t c = 0; c + 1 < frame.views.size(); ++c) {
       const double boundary = frame.views[c].splitFar;
       for (gpu::GBufferTexel g : frame.gbuffer.texels) {
-        // Points the camera sees near the boundary: inside both cascades' spheres.
-        if (g.info.w == 0u || std::abs(double(g.position.w) - boundary) > 0.05 * boundary) continue;
+        // Points the camera sees near the boundary (inside both cascades' spheres), each shaded as if its view
+        // depth lay just inside the boundary and just past it. Within 20% of the boundary's depth they include
+        // penumbrae, where the two cascades' kernels differ.
+        if (g.info.w == 0u || std::abs(double(g.position.w) - boundary) > 0.2 * boundary) continue;
         ++probed;
         g.position.w = float(boundary * (1.0 - 1e-6));
         const float inside = shadowTermAt(inputs, 0, g);

@@ -149,8 +149,8 @@ TEST_F(SceneFileTest, DesignExampleParsesWithDefaults) {
   EXPECT_EQ(lamp.shadow->filter, ShadowFilter::Poisson16);
   EXPECT_FLOAT_EQ(lamp.shadow->maxDistance, 400.0f) << "defaults to the camera's far plane";
   EXPECT_FLOAT_EQ(lamp.shadow->lambda, 0.7f);
-  EXPECT_FLOAT_EQ(lamp.shadow->normalBias, 1.5f);
-  EXPECT_FLOAT_EQ(lamp.shadow->slopeBias, 1.0f);
+  EXPECT_FLOAT_EQ(lamp.shadow->normalBias, 0.5f);
+  EXPECT_FLOAT_EQ(lamp.shadow->slopeBias, 0.5f);
   EXPECT_FLOAT_EQ(lamp.shadow->lightSize, 0.5f);
   EXPECT_FLOAT_EQ(lamp.shadow->contactShadow, 0.0f);
   EXPECT_FLOAT_EQ(lamp.shadow->depthBias, 0.0f);

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs every libFuzzer target of ./build-asan (built by tools/run-sanitized.sh) in turn.
 #   tools/fuzz.sh           short mode: VOXSHADOW_FUZZ_SECONDS (default 45) seconds per target
-#   tools/fuzz.sh --long    1,000,000 executions per target (VOXSHADOW_FUZZ_RUNS overrides)
+#   tools/fuzz.sh --long    1,000,000 executions per target (VOXSHADOW_FUZZ_RUNS overrides), shared out
+#                           among VOXSHADOW_FUZZ_JOBS (default 1) libFuzzer jobs on one corpus
 #   tools/fuzz.sh ... NAME  only the targets named (scene_file, vdb, ...)
 # Each target fuzzes a working corpus in <build>/fuzz/<name>/corpus, seeded (read-only) from
 # tests/fuzz/seeds/<name>/, tests/fuzz/regressions/<name>/ and ../shared/assets/<name>/ where they exist.
@@ -42,8 +43,13 @@ export LSAN_OPTIONS="${LSAN_OPTIONS/lsan.supp/lsan-fuzz.supp}"
 # (vs::LoadOptions::checkInChildProcess) after every input that kills one, and each fork copies the page tables
 # and then the written pages of the parent (the default 256 MB quarantine doubled the cost of an execution).
 export ASAN_OPTIONS="$ASAN_OPTIONS:quarantine_size_mb=16"
+jobs=1
 if [ "$mode" = long ]; then
-  budget=(-runs="${VOXSHADOW_FUZZ_RUNS:-1000000}")
+  jobs="${VOXSHADOW_FUZZ_JOBS:-1}"
+  case "$jobs" in '' | *[!0-9]* | 0) echo "fuzz: VOXSHADOW_FUZZ_JOBS must be a positive integer, not '$jobs'" >&2; exit 2 ;; esac
+  total_runs="${VOXSHADOW_FUZZ_RUNS:-1000000}"
+  # Jobs fuzz the one corpus side by side (libFuzzer -jobs), each with its share of the executions, rounded up.
+  budget=(-runs="$(((total_runs + jobs - 1) / jobs))")
 else
   # A fixed seed makes the short pass replay the same mutations run after run, so that CI does not turn red by
   # chance on a known finding (tests/fuzz/findings/); the long mode explores with fresh seeds.
@@ -94,17 +100,32 @@ for name in "${names[@]}"; do
   # under ASan here, 8 when every input forked its own checking process): a fixed count makes its short pass
   # replay the same mutations every time, so that a finding is the same finding on every machine.
   if [ "$mode" = short ] && [ "$name" = vdb ]; then runs=(-runs="${VOXSHADOW_FUZZ_VDB_RUNS:-2000}"); fi
-  VOXSHADOW_FUZZ_ALLOCATION_CAP_MB="$cap" TMPDIR="$work/tmp" "$exe" "${flags[@]}" "${budget[@]}" "${runs[@]}" "$work/corpus" "${seeds[@]}" >"$work/log.txt" 2>&1 || rc=$?
+  job_logs=("$work/log.txt")
+  if [ "$jobs" -gt 1 ]; then
+    # libFuzzer writes job J's output to fuzz-J.log in the working directory.
+    rm -f "$work"/fuzz-*.log
+    flags+=(-jobs="$jobs" -workers="$jobs")
+    job_logs=()
+    for ((j = 0; j < jobs; j++)); do job_logs+=("$work/fuzz-$j.log"); done
+  fi
+  (cd "$work" && VOXSHADOW_FUZZ_ALLOCATION_CAP_MB="$cap" TMPDIR="$work/tmp" "$exe" "${flags[@]}" "${budget[@]}" "${runs[@]}" "$work/corpus" "${seeds[@]}") >"$work/log.txt" 2>&1 || rc=$?
   rm -rf "$work/tmp"
-  runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$work/log.txt" | tail -1)
-  secs=$(sed -n 's/^Done [0-9]* runs in \([0-9]*\) second.*/\1/p' "$work/log.txt" | tail -1)
+  runs=0
+  secs=0
+  for log in "${job_logs[@]}"; do
+    n=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" 2>/dev/null | tail -1)
+    t=$(sed -n 's/^Done [0-9]* runs in \([0-9]*\) second.*/\1/p' "$log" 2>/dev/null | tail -1)
+    runs=$((runs + ${n:-0}))
+    [ "${t:-0}" -gt "$secs" ] && secs="$t"
+  done
+  if [ "$jobs" -gt 1 ] && [ "$rc" -ne 0 ]; then cat "${job_logs[@]}" >>"$work/log.txt" 2>/dev/null || true; fi
   if [ "$rc" -ne 0 ]; then
     tail -n 60 "$work/log.txt" >&2
     echo "fuzz: $name FAILED (status $rc); log $work/log.txt, input in $work/artifacts/" >&2
     summary+=("$name: FAILED")
     status=1
   else
-    summary+=("$name: ${runs:-?} executions in ${secs:-?} s, corpus $(ls "$work/corpus" | wc -l) inputs")
+    summary+=("$name: $runs executions in $secs s ($jobs job(s)), corpus $(ls "$work/corpus" | wc -l) inputs")
   fi
 done
 printf 'fuzz: %s\n' "${summary[@]}"

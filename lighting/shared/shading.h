@@ -59,6 +59,46 @@ bool vsInsideView(VS_IN(ShadeView) view, vec2 texel, float depth, float margin) 
   return lateral && inDepth;
 }
 
+// The receiver as one view compares it: its (biased) plane, and its depth where no plane is compared.
+struct VsReceiver {
+  vec3 rel;     // a point of the receiver's plane, biased, relative to the view's eye (eye + eyeLow)
+  vec3 normal;  // the plane's unit normal (the face normal)
+  float depth;  // the biased receiver's own depth, in the layer's encoding
+  int plane;    // 1: compare each texel against the plane (vsReceiverPlaneDepth); 0: against depth
+};
+
+// m * p, summed column by column in a fixed order (as the trace kernels' vsMulPoint), so that both compilers
+// round alike.
+vec4 vsUnproject(VS_IN(mat4) m, vec4 p) {
+  VS_PRECISE vec4 r = m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3] * p.w;
+  return r;
+}
+
+// The depth, in the layer's encoding, at which texel t's own ray meets the receiver's plane. The ray is
+// rebuilt with the trace kernels' arithmetic (vsViewRay in compute/shared/traverse.h), so where it hits the
+// receiver's face (voxel faces are planar) this is the depth the texel stores, to rounding, wherever the
+// texel lies in the kernel: no depth slope to cover with a bias. A stored depth below it is a blocker in
+// front of the plane. The ray's slope against the plane is capped as the slope bias's is
+// (VS_MIN_SLOPE_COSINE), so that a ray nearly in the plane does not put its depth at infinity.
+float vsReceiverPlaneDepth(VS_IN(ShadeView) view, ivec2 t, vec3 rel, vec3 n) {
+  VS_PRECISE float nx = (float(t.x) + 0.5f) / float(view.info.y) * 2.0f - 1.0f;
+  VS_PRECISE float ny = (float(t.y) + 0.5f) / float(view.info.y) * 2.0f - 1.0f;
+  vec4 farH = vsUnproject(view.clipToEye, vec4(nx, ny, 1.0f, 1.0f));
+  VS_PRECISE vec3 farP = vec3(farH.x / farH.w, farH.y / farH.w, farH.z / farH.w);
+  VS_PRECISE vec3 start = vec3(0.0f);
+  VS_PRECISE vec3 d;
+  if (view.info.z == VS_ENCODING_NDC_DEPTH) {
+    vec4 nearH = vsUnproject(view.clipToEye, vec4(nx, ny, 0.0f, 1.0f));
+    start = vec3(nearH.x / nearH.w, nearH.y / nearH.w, nearH.z / nearH.w);
+    d = farP - start;
+  } else {
+    d = farP / length(farP);
+  }
+  VS_PRECISE float along = min(dot(n, d), -VS_MIN_SLOPE_COSINE * length(d));
+  VS_PRECISE float s = dot(n, rel - start) / along;
+  return s;
+}
+
 // The stored depth of texel t, clamped to the layer.
 float vsStoredDepth(VS_IN(ShadeView) view, ivec2 t) {
   int w = view.info.y;
@@ -66,23 +106,32 @@ float vsStoredDepth(VS_IN(ShadeView) view, ivec2 t) {
   return shadowTexels[view.info.x + c.y * w + c.x];
 }
 
-// 1 where the receiver at `depth` is in front of (or at) the stored depth of texel t.
-float vsCompare(VS_IN(ShadeView) view, ivec2 t, float depth) {
-  return vsStoredDepth(view, t) < depth ? 0.0f : 1.0f;
+// The receiver's depth as texel t sees it: its plane at the texel's ray, but never deeper than the receiver
+// itself. Where the plane recedes from the light, a texel past a concave corner meets it inside the solid,
+// behind the neighbouring face; comparing that face with the receiver's own depth there keeps it from
+// shadowing the receiver. On an unbroken face that texel's hit lies on the plane, behind the receiver's depth:
+// lit either way.
+float vsReceiverDepth(VS_IN(ShadeView) view, ivec2 t, VS_IN(VsReceiver) r) {
+  return r.plane != 0 ? min(vsReceiverPlaneDepth(view, t, r.rel, r.normal), r.depth) : r.depth;
 }
 
-float vsFilterBox(VS_IN(ShadeView) view, vec2 texel, float depth, int radius) {
+// 1 where the receiver is in front of (or at) the stored depth of texel t.
+float vsCompare(VS_IN(ShadeView) view, ivec2 t, VS_IN(VsReceiver) r) {
+  return vsStoredDepth(view, t) < vsReceiverDepth(view, t, r) ? 0.0f : 1.0f;
+}
+
+float vsFilterBox(VS_IN(ShadeView) view, vec2 texel, VS_IN(VsReceiver) r, int radius) {
   ivec2 centre = ivec2(floor(texel));
   float sum = 0.0f;
   for (int dy = -radius; dy <= radius; ++dy)
-    for (int dx = -radius; dx <= radius; ++dx) sum += vsCompare(view, centre + ivec2(dx, dy), depth);
+    for (int dx = -radius; dx <= radius; ++dx) sum += vsCompare(view, centre + ivec2(dx, dy), r);
   float side = float(2 * radius + 1);
   return sum / (side * side);
 }
 
-float vsFilterDisc(VS_IN(ShadeView) view, vec2 texel, float depth, vec2 rotation, float radius) {
+float vsFilterDisc(VS_IN(ShadeView) view, vec2 texel, VS_IN(VsReceiver) r, vec2 rotation, float radius) {
   float sum = 0.0f;
-  for (int i = 0; i < 16; ++i) sum += vsCompare(view, ivec2(floor(texel + vsDiscSample(i, rotation) * radius)), depth);
+  for (int i = 0; i < 16; ++i) sum += vsCompare(view, ivec2(floor(texel + vsDiscSample(i, rotation) * radius)), r);
   return sum / 16.0f;
 }
 
@@ -92,27 +141,32 @@ float vsTexelWorld(VS_IN(ShadeView) view, float lightDistance) {
   return view.info.z == VS_ENCODING_NDC_DEPTH ? view.eye.w : view.eye.w * lightDistance;
 }
 
-// Percentage-closer soft shadows: the blockers' mean lightDistance from the emitter over a search disc, then a
-// disc whose radius is the penumbra that a lightSize-wide emitter gives at that lightDistance ratio. Distances are
+// Percentage-closer soft shadows: the blockers' mean distance from the emitter over a search disc, then a
+// disc whose radius is the penumbra that a lightSize-wide emitter gives at that distance ratio. Distances are
 // world units from the emitter (a directional light's emitter lies on its view's near plane).
-float vsFilterPcss(VS_IN(ShadeView) view, vec2 texel, float depth, vec2 rotation, float lightSize, float texelWorld) {
+float vsFilterPcss(VS_IN(ShadeView) view, vec2 texel, VS_IN(VsReceiver) r, vec2 rotation, float lightSize,
+                   float texelWorld) {
   float scale = view.split.w;
-  float receiver = depth * scale;
   float search = clamp(0.5f * lightSize / texelWorld, 1.0f, VS_PCSS_MAX_RADIUS);
   float blockers = 0.0f;
+  float receivers = 0.0f;
   float count = 0.0f;
   for (int i = 0; i < 16; ++i) {
-    float stored = vsStoredDepth(view, ivec2(floor(texel + vsDiscSample(i, rotation) * search)));
-    if (stored < depth) {
+    ivec2 t = ivec2(floor(texel + vsDiscSample(i, rotation) * search));
+    float stored = vsStoredDepth(view, t);
+    float receiver = vsReceiverDepth(view, t, r);
+    if (stored < receiver) {
       blockers += stored * scale;
+      receivers += receiver * scale;
       count += 1.0f;
     }
   }
   if (count == 0.0f) return 1.0f;
   float blocker = max(blockers / count, 1e-4f * scale);
+  float receiver = receivers / count;
   float penumbra = lightSize * (receiver - blocker) / blocker;
   float radius = clamp(0.5f * penumbra / texelWorld, 1.0f, VS_PCSS_MAX_RADIUS);
-  return vsFilterDisc(view, texel, depth, rotation, radius);
+  return vsFilterDisc(view, texel, r, rotation, radius);
 }
 
 // How far (texels) a filter reads from its centre: the lateral check's margin.
@@ -136,22 +190,30 @@ vec3 vsBiasedReceiver(VS_IN(ShadeLight) light, VS_IN(ShadeView) view, vec3 p, ve
 // The filtered shadow-map term of one view, or -1 where the view does not cover the receiver. lateral: the
 // kernel must lie inside the layer (cascades, spot views); cube faces leave it out, since a receiver near a
 // face's edge is as near the edge of its neighbour, and read clamped texels instead.
+// Layers of entry depths compare each texel with the receiver's plane, moved by the biases, at the texel's own
+// ray; the kernel is centred where the receiver itself projects. Layers of voxel-centre depths compare the
+// biased receiver's depth, centred where it projects.
 float vsViewShadow(VS_IN(ShadeLight) light, int viewIndex, vec3 p, vec3 n, vec3 toLight, float nDotL,
                    float lightDistance, bool lateral) {
   ShadeView view = shadeViews[viewIndex];
-  vec3 receiver = vsBiasedReceiver(light, view, p, n, toLight, nDotL, lightDistance);
+  vec3 biased = vsBiasedReceiver(light, view, p, n, toLight, nDotL, lightDistance);
+  VsReceiver r;
+  r.plane = view.trace.x == VS_DEPTH_POINT_ENTRY ? 1 : 0;
+  r.normal = n;
+  r.rel = (biased - vec3(view.eye)) - vec3(view.eyeLow);
   vec2 texel;
-  float depth;
+  if (!vsProjectToView(view, biased, texel, r.depth)) return -1.0f;
+  float depth = r.depth;
+  if (r.plane != 0 && !vsProjectToView(view, p, texel, depth)) return -1.0f;
   int kind = light.info.y;
-  if (!vsProjectToView(view, receiver, texel, depth)) return -1.0f;
   if (lateral && !vsInsideView(view, texel, depth, vsFilterReach(kind))) return -1.0f;
   float texelWorld = vsTexelWorld(view, lightDistance);
-  if (kind == VS_FILTER_HARD) return vsCompare(view, ivec2(floor(texel)), depth);
-  if (kind == VS_FILTER_PCF3) return vsFilterBox(view, texel, depth, 1);
-  if (kind == VS_FILTER_PCF5) return vsFilterBox(view, texel, depth, 2);
+  if (kind == VS_FILTER_HARD) return vsCompare(view, ivec2(floor(texel)), r);
+  if (kind == VS_FILTER_PCF3) return vsFilterBox(view, texel, r, 1);
+  if (kind == VS_FILTER_PCF5) return vsFilterBox(view, texel, r, 2);
   vec2 rotation = vsDiscRotation(p, texelWorld);
-  if (kind == VS_FILTER_POISSON16) return vsFilterDisc(view, texel, depth, rotation, VS_POISSON_RADIUS);
-  return vsFilterPcss(view, texel, depth, rotation, light.bias.w, texelWorld);
+  if (kind == VS_FILTER_POISSON16) return vsFilterDisc(view, texel, r, rotation, VS_POISSON_RADIUS);
+  return vsFilterPcss(view, texel, r, rotation, light.bias.w, texelWorld);
 }
 
 // The shadow-map term of a light at a receiver (1 lit, 0 shadowed). Cascades: the first whose depth range

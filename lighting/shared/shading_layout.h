@@ -56,15 +56,21 @@ struct ShadeLight {
   ivec4 info;      // x: VS_LIGHT_*; y: VS_FILTER_*; z: its first ShadeView; w: its view count
 };
 
-// A shadow layer as the pass samples it.
+// A shadow layer as the pass samples it. The texel rays are rebuilt exactly as the trace kernels built them
+// (clipToEye and the split eye of the layer's TraceView), so that a receiver's plane can be met by the very
+// ray whose depth a texel stores (vsReceiverPlaneDepth).
 struct ShadeView {
   mat4 eyeToClip;  // clip = eyeToClip * (p - eye): the view-projection about its eye
-  vec4 eye;        // xyz: the eye (spot, point: the light; directional: its near plane's centre); w: the world
-                   // size of a texel (directional), or of a texel at unit distance (spot, point)
+  mat4 clipToEye;  // its inverse, inverted in double: the TraceView's
+  vec4 eye;        // xyz: the eye of the layer's rays rounded to float, the TraceView's eyeHigh (spot, point: the
+                   // light); w: the world size of a texel (directional), or of a texel at unit distance (spot,
+                   // point)
+  vec4 eyeLow;     // xyz: the rest of the eye (TraceView eyeLow); w: 0
   vec4 split;      // x, y: the camera view depths a cascade covers; z: the miss value; w: world units per unit
                    // of the encoded depth (pcss)
   ivec4 info;      // x: the layer's first texel in the layer buffer; y: its width (= height); z: VS_ENCODING_*;
                    // w: the cascade index, -1 for other views
+  ivec4 trace;     // x: VS_DEPTH_POINT_* of the stored depths; yzw: 0
 };
 
 // The pass's push block.
@@ -89,10 +95,13 @@ VS_OFFSET_CHECK(ShadeLight, direction, 32);
 VS_OFFSET_CHECK(ShadeLight, bias, 48);
 VS_OFFSET_CHECK(ShadeLight, extra, 64);
 VS_OFFSET_CHECK(ShadeLight, info, 80);
-VS_LAYOUT_CHECK(ShadeView, 112);
-VS_OFFSET_CHECK(ShadeView, eye, 64);
-VS_OFFSET_CHECK(ShadeView, split, 80);
-VS_OFFSET_CHECK(ShadeView, info, 96);
+VS_LAYOUT_CHECK(ShadeView, 208);
+VS_OFFSET_CHECK(ShadeView, clipToEye, 64);
+VS_OFFSET_CHECK(ShadeView, eye, 128);
+VS_OFFSET_CHECK(ShadeView, eyeLow, 144);
+VS_OFFSET_CHECK(ShadeView, split, 160);
+VS_OFFSET_CHECK(ShadeView, info, 176);
+VS_OFFSET_CHECK(ShadeView, trace, 192);
 VS_LAYOUT_CHECK(ShadePush, 64);
 VS_OFFSET_CHECK(ShadePush, sky, 16);
 VS_OFFSET_CHECK(ShadePush, size, 32);
