@@ -17,11 +17,11 @@ class CpuBackend final : public Tracer {
     int threads = options_.threads > 0 ? options_.threads : int(std::thread::hardware_concurrency());
     return "CPU, " + std::to_string(threads) + (threads == 1 ? " thread" : " threads");
   }
-  void setScene(const SceneData& scene) override {
+  void bindScene(const SceneData& scene) override {
     // The tables derived from the voxels are rebuilt on the next trace.
     tracer_ = std::make_unique<CpuTracer>(scene);
   }
-  void instancesMoved(const SceneData& scene) override {
+  void bindMovedInstances(const SceneData& scene) override {
     // The fast path's tables depend on the voxels only: moved instances keep them.
     if (!tracer_) throwRuntime("Tracer::instancesMoved called before setScene()");
     (void)scene;
@@ -69,8 +69,8 @@ class VulkanBackend final : public Tracer {
 
   std::string backend() const override { return "vulkan"; }
   std::string deviceName() const override { return tracer_.device().name; }
-  void setScene(const SceneData& scene) override { tracer_.upload(scene); }
-  void instancesMoved(const SceneData& scene) override { tracer_.uploadInstances(scene); }
+  void bindScene(const SceneData& scene) override { tracer_.upload(scene); }
+  void bindMovedInstances(const SceneData& scene) override { tracer_.uploadInstances(scene); }
   TraceStats traceShadow(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) override {
     return tracer_.trace(views, layers);
   }

@@ -28,10 +28,20 @@ class Tracer {
   // Binds the scene, after it was built or any voxel changed (edits, objects added). The CPU backend reads
   // `scene` in place and keeps a pointer to it: it must outlive the tracer or the next setScene. The Vulkan
   // backend copies it to the device. Throws vs::Error(Runtime) when it does not fit the device.
-  virtual void setScene(const SceneData& scene) = 0;
+  void setScene(const SceneData& scene) {
+    ++sceneVersion_;
+    bindScene(scene);
+  }
   // The per-frame update when only instances moved (SceneData::moveInstance): no voxel data is copied again.
   // Precondition: setScene was called with this scene and no voxel changed since.
-  virtual void instancesMoved(const SceneData& scene) = 0;
+  void instancesMoved(const SceneData& scene) {
+    ++sceneVersion_;
+    bindMovedInstances(scene);
+  }
+  // Counts the scene updates bound so far (setScene and instancesMoved calls). Whatever was traced at one
+  // version stays exact while the version holds, so a frame loop keeps the shadow layers whose view did not
+  // change (FrameRenderer) instead of tracing them again.
+  std::uint64_t sceneVersion() const { return sceneVersion_; }
 
   // The three ray kinds. Preconditions: setScene was called; views as in CpuTracer::trace; the outputs are as
   // long as `rays` (else vs::Error(BadInput)).
@@ -43,6 +53,13 @@ class Tracer {
   // and box table), or null for the other backend.
   virtual CpuTracer* cpu() { return nullptr; }
   virtual VulkanTracer* vulkan() { return nullptr; }
+
+ protected:
+  virtual void bindScene(const SceneData& scene) = 0;
+  virtual void bindMovedInstances(const SceneData& scene) = 0;
+
+ private:
+  std::uint64_t sceneVersion_ = 0;
 };
 
 struct CpuTracerOptions {

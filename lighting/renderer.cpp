@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 
 #include "lighting/vulkan_lighting.h"
 #include "voxel/error.h"
@@ -33,6 +34,40 @@ struct FrameRenderer::VulkanPass {
 FrameRenderer::FrameRenderer(Tracer& tracer) : tracer_(tracer) {}
 FrameRenderer::~FrameRenderer() = default;
 
+int FrameRenderer::traceChangedLayers(const std::vector<LightView>& views) {
+  // A layer holds while the bound scene and its view's record (matrices, eye, size, encoding, depth point:
+  // everything its rays and texel values are made from) stay the same, bit for bit.
+  const bool sameScene = tracer_.sceneVersion() == tracedVersion_;
+  std::vector<std::size_t> changed;
+  for (std::size_t i = 0; i < views.size(); ++i)
+    if (!sameScene || i >= tracedViews_.size() ||
+        std::memcmp(&views[i].trace, &tracedViews_[i], sizeof(gpu::TraceView)) != 0)
+      changed.push_back(i);
+  layers_.resize(views.size());
+  tracedViews_.resize(views.size());
+  if (changed.empty()) return 0;
+  // The changed layers are traced as one batch (one submission on Vulkan); moving them in and out copies no
+  // texels.
+  std::vector<gpu::TraceView> batch;
+  std::vector<ShadowLayer> batchLayers;
+  for (std::size_t i : changed) {
+    batch.push_back(views[i].trace);
+    batchLayers.push_back(std::move(layers_[i]));
+  }
+  try {
+    tracer_.traceShadow(batch, batchLayers);
+  } catch (...) {
+    // Some layers were moved out: none is known to hold any more.
+    layers_.clear();
+    tracedViews_.clear();
+    throw;
+  }
+  for (std::size_t k = 0; k < changed.size(); ++k) layers_[changed[k]] = std::move(batchLayers[k]);
+  for (std::size_t i = 0; i < views.size(); ++i) tracedViews_[i] = views[i].trace;
+  tracedVersion_ = tracer_.sceneVersion();
+  return int(changed.size());
+}
+
 RenderedFrame FrameRenderer::render(const Scene& scene, const RenderOptions& options) {
   const SceneDesc& desc = scene.desc();
   if (!desc.camera) throwBadInput(desc.file.string() + ": camera: a scene needs a camera to be rendered");
@@ -52,10 +87,7 @@ RenderedFrame FrameRenderer::render(const Scene& scene, const RenderOptions& opt
     throwBadInput("--debug layer=" + std::to_string(options.debugLayer) + ": the scene has " +
                   std::to_string(frame.views.size()) + " shadow layers (0.." +
                   std::to_string(int(frame.views.size()) - 1) + ")");
-  std::vector<gpu::TraceView> traceViews;
-  for (const LightView& v : frame.views) traceViews.push_back(v.trace);
-  layers_.resize(traceViews.size());
-  if (!traceViews.empty()) tracer_.traceShadow(traceViews, layers_);
+  frame.layersTraced = traceChangedLayers(frame.views);
   frame.timings.shadowMs = msSince(t0);
 
   t0 = Clock::now();

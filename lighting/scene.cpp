@@ -149,6 +149,11 @@ Scene Scene::load(SceneDesc desc) {
   return scene;
 }
 
+void Scene::setCamera(const CameraDesc& camera) {
+  checkCamera(camera, "Scene::setCamera: camera");
+  desc_.camera = camera;
+}
+
 void Scene::moveInstance(std::size_t i, const glm::dmat4& transform) {
   if (i >= instances_.size())
     throwBadInput("moveInstance: instance " + std::to_string(i) + " out of range (the scene has " +

@@ -48,6 +48,10 @@ class Scene {
   // The shadow views of the current lights over the current world bounds.
   std::vector<LightView> lightViews() const { return buildLightViews(desc_, data_.worldBounds); }
 
+  // Replaces the camera, as a frame loop does every frame (a scene file's camera is checked alike:
+  // checkCamera). Throws vs::Error(BadInput) naming the field, and keeps the camera it had, when it is invalid.
+  void setCamera(const CameraDesc& camera);
+
   // Places instance i with a new asset-to-world transform (what the scene file's instance transform is:
   // a .vox placement keeps its place within its asset) and updates the trace arrays (refit or rebuild).
   // desc() follows when the instance is its scene instance's only one. Preconditions: i < instances().size()

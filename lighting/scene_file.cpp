@@ -454,19 +454,13 @@ class Parser {
     CameraDesc c;
     c.position = glm::vec3(position(required(cam, path, "position"), key(path, "position")));
     c.target = glm::vec3(position(required(cam, path, "target"), key(path, "target")));
-    if (c.position == c.target) fail(key(path, "target"), "must differ from position");
     if (auto it = cam.find("up"); it != cam.end()) c.up = direction(*it, key(path, "up"));
-    if (glm::length(glm::cross(glm::normalize(c.target - c.position), c.up)) < 1e-6f)
-      fail(key(path, "up"), "must not be parallel to the view direction");
-    if (auto it = cam.find("fov_deg"); it != cam.end()) {
-      c.fovDeg = float(number(*it, key(path, "fov_deg")));
-      if (!(c.fovDeg > 0.0f && c.fovDeg < 180.0f)) fail(key(path, "fov_deg"), "must be between 0 and 180 (exclusive), not " + fmt(c.fovDeg));
-    }
+    if (auto it = cam.find("fov_deg"); it != cam.end()) c.fovDeg = float(number(*it, key(path, "fov_deg")));
     if (auto it = cam.find("near"); it != cam.end()) c.nearPlane = distance(*it, key(path, "near"));
     if (auto it = cam.find("far"); it != cam.end()) c.farPlane = distance(*it, key(path, "far"));
-    if (!(c.farPlane > c.nearPlane)) fail(key(path, "far"), "must be greater than near");
     if (auto it = cam.find("width"); it != cam.end()) c.width = positiveInt(*it, key(path, "width"));
     if (auto it = cam.find("height"); it != cam.end()) c.height = positiveInt(*it, key(path, "height"));
+    checkCamera(c, file_.string() + ": " + path);
     return c;
   }
 
@@ -642,6 +636,30 @@ SceneDesc parseSceneFile(const std::filesystem::path& file) {
   in.read(text.data(), std::streamsize(bytes));
   if (in.bad() || std::uintmax_t(in.gcount()) != bytes) throwBadInput(file.string() + ": cannot read the scene file");
   return parseSceneJson(text, file);
+}
+
+void checkCamera(const CameraDesc& c, const std::string& where) {
+  auto fail = [&](const char* field, const std::string& what) { throwBadInput(where + "." + field + ": " + what); };
+  auto checkPoint = [&](const glm::vec3& p, const char* field) {
+    for (int a = 0; a < 3; ++a)
+      if (!(std::abs(double(p[a])) <= limits::kMaxCoordinate))
+        fail(field, "coordinates must be between " + fmt(-limits::kMaxCoordinate) + " and " +
+                        fmt(limits::kMaxCoordinate) + ", not " + fmt(p[a]));
+  };
+  checkPoint(c.position, "position");
+  checkPoint(c.target, "target");
+  if (c.position == c.target) fail("target", "must differ from position");
+  if (!std::isfinite(glm::length(c.up)) || !(glm::length(c.up) > 0.0f)) fail("up", "must be a non-zero vector");
+  if (glm::length(glm::cross(glm::normalize(c.target - c.position), glm::normalize(c.up))) < 1e-6f)
+    fail("up", "must not be parallel to the view direction");
+  if (!(c.fovDeg > 0.0f && c.fovDeg < 180.0f)) fail("fov_deg", "must be between 0 and 180 (exclusive), not " + fmt(c.fovDeg));
+  for (auto [plane, field] : {std::pair{c.nearPlane, "near"}, std::pair{c.farPlane, "far"}})
+    if (!(plane > 0.0f && plane <= limits::kMaxDistance))
+      fail(field, "must be greater than 0 and at most " + fmt(limits::kMaxDistance) + ", not " + fmt(plane));
+  if (!(c.farPlane > c.nearPlane)) fail("far", "must be greater than near");
+  for (auto [side, field] : {std::pair{c.width, "width"}, std::pair{c.height, "height"}})
+    if (side <= 0 || side > limits::kMaxImageSide)
+      fail(field, "must be between 1 and " + std::to_string(limits::kMaxImageSide) + ", not " + std::to_string(side));
 }
 
 std::string fileKindProblem(const std::filesystem::path& file) {

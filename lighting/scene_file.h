@@ -114,6 +114,11 @@ SceneDesc parseSceneFile(const std::filesystem::path& file);
 // characters in keys or strings, duplicate light or layer names, a missing or unsupported version.
 SceneDesc parseSceneJson(const std::string& text, const std::filesystem::path& file);
 
+// Checks a camera as the scene file's "camera" is checked: positions within limits::kMaxCoordinate, target
+// apart from position, up non-zero and not parallel to the view, 0 < fov_deg < 180, 0 < near < far <=
+// limits::kMaxDistance, sizes 1..limits::kMaxImageSide. Throws vs::Error(BadInput) "<where>.<field>: <problem>".
+void checkCamera(const CameraDesc& camera, const std::string& where);
+
 // Why `file` cannot be read as an input ("no such file", "is a directory, not a file", "is a FIFO, ...");
 // empty for a regular file (symlinks followed). Inputs are only ever read from regular files, so that a
 // FIFO or a device can neither hang a command nor feed it without end.

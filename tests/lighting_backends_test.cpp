@@ -5,6 +5,7 @@
 #include <cstring>
 #include <fstream>
 
+#include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
 #include <OpenImageIO/imageio.h>
 
@@ -15,6 +16,7 @@
 #include "lighting/vulkan_lighting.h"
 #include "support/lighting_scenes.h"
 #include "support/test_paths.h"
+#include "voxel/demo_world.h"
 #include "voxel/error.h"
 
 namespace fs = std::filesystem;
@@ -70,6 +72,141 @@ TEST(LightingBackends, VulkanMatchesTheCpuPass) {
                 host.shadowTerms.size());
   }
   EXPECT_TRUE(vulkan->vulkan()->validationMessages().empty());
+}
+
+namespace {
+
+// Whether the renderer's layers, and the frame, equal what a new renderer traces from nothing.
+void expectSameAsFreshRender(const Scene& scene, Tracer& tracer, const FrameRenderer& kept, const RenderedFrame& frame,
+                             const RenderOptions& options, const std::string& step) {
+  FrameRenderer fresh(tracer);
+  const RenderedFrame truth = fresh.render(scene, options);
+  EXPECT_EQ(truth.layersTraced, int(truth.views.size())) << step;
+  ASSERT_EQ(kept.layers().size(), fresh.layers().size()) << step;
+  for (std::size_t i = 0; i < kept.layers().size(); ++i) {
+    const ShadowLayer &a = kept.layers()[i], &b = fresh.layers()[i];
+    ASSERT_EQ(a.texels.size(), b.texels.size()) << step << ", layer " << i;
+    EXPECT_EQ(0, std::memcmp(a.texels.data(), b.texels.data(), a.texels.size() * sizeof(float)))
+        << step << ", layer " << i << " (" << truth.views[i].name << ")";
+  }
+  ASSERT_EQ(frame.color.size(), truth.color.size());
+  EXPECT_EQ(0, std::memcmp(frame.color.data(), truth.color.data(), truth.color.size() * sizeof(glm::vec4))) << step;
+}
+
+// How many views of `now` differ from `before` in what their rays are made of.
+int changedViews(const std::vector<LightView>& before, const std::vector<LightView>& now) {
+  int n = 0;
+  for (std::size_t i = 0; i < now.size(); ++i)
+    n += i >= before.size() || std::memcmp(&now[i].trace, &before[i].trace, sizeof(gpu::TraceView)) != 0;
+  return n;
+}
+
+}  // namespace
+
+// A frame loop: a renderer traces a layer again only when its view or the scene changed, and what it keeps
+// is what a new renderer would trace. The demo scene (sun cascades, a spot lamp, a point torch's six faces)
+// on both backends: unchanged, a sub-texel camera step, a large camera move (the cascades follow, the lamp and
+// torch do not), an instance moved (everything), and an invalidation.
+TEST(LightingFrames, OnlyChangedLayersAreTracedAgain) {
+  const fs::path dir = test::scratchDir("lighting_frames");
+  const std::vector<std::string> written = writeDemoWorld(dir);
+  VulkanOptions vulkanOptions;
+  vulkanOptions.validation = true;
+  std::vector<std::unique_ptr<Tracer>> tracers;
+  tracers.push_back(makeCpuTracer());
+  tracers.push_back(makeVulkanTracer(vulkanOptions));  // no device: fails here, loudly
+  for (const std::unique_ptr<Tracer>& tracer : tracers) {
+    SceneDesc desc = parseSceneFile(written.back());
+    for (LightDesc& l : desc.lights)
+      if (l.shadow) l.shadow->resolution = 128;
+    Scene scene = Scene::load(std::move(desc));
+    tracer->setScene(scene.data());
+    RenderOptions options;
+    options.width = 160;
+    options.height = 90;
+    FrameRenderer renderer(*tracer);
+    const std::string backend = tracer->backend();
+
+    const RenderedFrame first = renderer.render(scene, options);
+    ASSERT_EQ(first.views.size(), 10u);
+    EXPECT_EQ(first.layersTraced, 10) << backend;
+
+    const RenderedFrame still = renderer.render(scene, options);
+    EXPECT_EQ(still.layersTraced, 0) << backend << ": nothing changed";
+    expectSameAsFreshRender(scene, *tracer, renderer, still, options, backend + ", nothing changed");
+
+    // A step of a sixteenth of the nearest cascade's texel: most cascades keep their snapped origin.
+    CameraDesc camera = *scene.desc().camera;
+    camera.position.x += float(first.views[0].texelWorld / 16.0);
+    scene.setCamera(camera);
+    const RenderedFrame step = renderer.render(scene, options);
+    EXPECT_EQ(step.layersTraced, changedViews(still.views, step.views)) << backend;
+    EXPECT_LE(step.layersTraced, 3) << backend << ": only cascades follow the camera";
+    expectSameAsFreshRender(scene, *tracer, renderer, step, options, backend + ", sub-texel step");
+
+    camera.position += glm::vec3(-20.0f, 5.0f, 10.0f);
+    camera.target += glm::vec3(-20.0f, 5.0f, 10.0f);
+    scene.setCamera(camera);
+    const RenderedFrame moved = renderer.render(scene, options);
+    EXPECT_EQ(moved.layersTraced, 3) << backend << ": the three cascades, not the lamp or the torch";
+    expectSameAsFreshRender(scene, *tracer, renderer, moved, options, backend + ", camera moved");
+
+    const std::size_t last = scene.instances().size() - 1;
+    scene.moveInstance(last, glm::translate(scene.desc().instances[scene.instanceSources()[last]].transform,
+                                            glm::dvec3(3.0, 0.0, -2.0)));
+    tracer->instancesMoved(scene.data());
+    const RenderedFrame instance = renderer.render(scene, options);
+    EXPECT_EQ(instance.layersTraced, 10) << backend << ": an instance moved";
+    expectSameAsFreshRender(scene, *tracer, renderer, instance, options, backend + ", instance moved");
+
+    renderer.invalidateLayers();
+    EXPECT_EQ(renderer.render(scene, options).layersTraced, 10) << backend;
+    if (VulkanTracer* vulkan = tracer->vulkan()) EXPECT_TRUE(vulkan->validationMessages().empty());
+  }
+}
+
+// The camera a frame loop sets is checked as the scene file's is, and a refused one leaves the old in place.
+TEST(LightingFrames, InvalidCamerasAreRefused) {
+  Scene scene = Scene::load(cityScene("frames_camera"));
+  const CameraDesc good = *scene.desc().camera;
+  auto refused = [&](CameraDesc c, const std::string& field) {
+    try {
+      scene.setCamera(c);
+      ADD_FAILURE() << field << ": accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+      EXPECT_NE(std::string(e.what()).find("camera." + field + ":"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(scene.desc().camera->position, good.position);
+  };
+  CameraDesc c = good;
+  c.target = c.position;
+  refused(c, "target");
+  c = good;
+  c.position.y = std::nanf("");
+  refused(c, "position");
+  c = good;
+  c.position.x = 2e5f;
+  refused(c, "position");
+  c = good;
+  c.up = c.target - c.position;
+  refused(c, "up");
+  c = good;
+  c.fovDeg = 180.0f;
+  refused(c, "fov_deg");
+  c = good;
+  c.farPlane = c.nearPlane;
+  refused(c, "far");
+  c = good;
+  c.nearPlane = -1.0f;
+  refused(c, "near");
+  c = good;
+  c.width = 0;
+  refused(c, "width");
+  c = good;
+  c.position += glm::vec3(1.0f);
+  scene.setCamera(c);
+  EXPECT_EQ(scene.desc().camera->position, c.position);
 }
 
 // Every filter: hard gives only 0 and 1; the others soften edges; pcss softens more with a larger light.
