@@ -87,14 +87,17 @@ RenderedFrame FrameRenderer::render(const Scene& scene, const RenderOptions& opt
     throwBadInput("--debug layer=" + std::to_string(options.debugLayer) + ": the scene has " +
                   std::to_string(frame.views.size()) + " shadow layers (0.." +
                   std::to_string(int(frame.views.size()) - 1) + ")");
-  frame.layersTraced = traceChangedLayers(frame.views);
+  // A frame without maps leaves the layers as they are, for the next frame that has them.
+  if (needMaps) frame.layersTraced = traceChangedLayers(frame.views);
   frame.timings.shadowMs = msSince(t0);
 
   t0 = Clock::now();
   frame.gbuffer = traceGBuffer(scene, camera, tracer_);
   frame.timings.gbufferMs = msSince(t0);
 
-  const ShadeInputs inputs = makeShadeInputs(desc, frame.views, layers_, raytraced);
+  const ShadeInputs inputs =
+      makeShadeInputs(desc, frame.views, needMaps ? std::span<const ShadowLayer>(layers_) : std::span<const ShadowLayer>(),
+                      raytraced);
   t0 = Clock::now();
   std::vector<std::uint32_t> visible;
   if (std::any_of(inputs.rayLength.begin(), inputs.rayLength.end(), [](float l) { return l != 0.0f; })) {

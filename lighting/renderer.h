@@ -59,7 +59,7 @@ class FrameRenderer {
   // names an existing layer for DebugView::Layer (else vs::Error(BadInput)).
   RenderedFrame render(const Scene& scene, const RenderOptions& options);
 
-  // The shadow layers of the last frame (light view order), reused by the next one.
+  // The shadow layers of the last frame that had shadow maps (light view order), reused by the next one.
   const std::vector<ShadowLayer>& layers() const { return layers_; }
   // Makes the next frame trace every layer (a benchmark timing the trace, or a caller that changed what the
   // tracer reads without telling it).

@@ -159,6 +159,12 @@ TEST(LightingFrames, OnlyChangedLayersAreTracedAgain) {
     EXPECT_EQ(instance.layersTraced, 10) << backend << ": an instance moved";
     expectSameAsFreshRender(scene, *tracer, renderer, instance, options, backend + ", instance moved");
 
+    // A frame with ray-traced shadows needs no layers and leaves them for the next frame with maps.
+    RenderOptions raytraced = options;
+    raytraced.shadows = ShadowSource::Raytraced;
+    EXPECT_EQ(renderer.render(scene, raytraced).layersTraced, 0) << backend;
+    EXPECT_EQ(renderer.render(scene, options).layersTraced, 0) << backend << ": after a ray-traced frame";
+
     renderer.invalidateLayers();
     EXPECT_EQ(renderer.render(scene, options).layersTraced, 10) << backend;
     if (VulkanTracer* vulkan = tracer->vulkan()) EXPECT_TRUE(vulkan->validationMessages().empty());
