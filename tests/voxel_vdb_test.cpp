@@ -23,6 +23,7 @@
 #include "support/test_paths.h"
 #include "voxel/demo_world.h"
 #include "voxel/error.h"
+#include "voxel/sanitizers.h"
 #include "voxel/vdb_info.h"
 #include "voxel/vdb_rules.h"
 #include "voxel/voxel_object.h"
@@ -498,17 +499,6 @@ std::string int32Bytes(std::int32_t v) {
   return s;
 }
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
-#else
-constexpr bool kSanitized = false;
-#endif
 
 // The error of loading `file`: the same with and without the checking process, and from inspectVdb.
 std::string refusalOf(const std::string& file) {
@@ -545,7 +535,7 @@ std::string refusalOf(const std::string& file) {
 // process before the loader's check can run. The file is refused as damaged all the same, naming the grid;
 // only the checked path is taken there (reading in this process would end the test).
 void expectDamagedBool(const std::string& file, const std::string& grid, const std::string& message) {
-  if (!kSanitized) {
+  if (!vs::kAddressSanitized) {
     EXPECT_EQ(refusalOf(file), message);
     return;
   }

@@ -11,22 +11,10 @@
 #include <link.h>
 
 #include "voxel/error.h"
+#include "voxel/sanitizers.h"
 
 namespace vs {
 namespace {
-
-// AddressSanitizer builds: whether this translation unit is instrumented (clang and GCC spell it apart).
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kLeakChecked = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kLeakChecked = true;
-#else
-constexpr bool kLeakChecked = false;
-#endif
-#else
-constexpr bool kLeakChecked = false;
-#endif
 
 // LeakSanitizer scans the globals of the libraries mapped when the process ends. The Vulkan loader unloads a
 // driver at vkDestroyInstance, and memory that the driver keeps for the whole process behind one of its
@@ -35,7 +23,7 @@ constexpr bool kLeakChecked = false;
 // once an instance exists stays loaded, so such memory is seen for what it is, still reachable; memory that
 // nothing points to is reported as before.
 void keepLoadedLibrariesMapped() {
-  if constexpr (kLeakChecked) {
+  if constexpr (kAddressSanitized) {
     std::vector<std::string> names;
     dl_iterate_phdr(
         [](dl_phdr_info* info, std::size_t, void* out) {
