@@ -164,9 +164,60 @@ void Scene::moveInstance(std::size_t i, const glm::dmat4& transform) {
       transform[2][3] != 0.0 || transform[3][3] != 1.0)
     throwBadInput("moveInstance: instance " + std::to_string(i) + ": transform must be affine and invertible");
   SceneInstance& inst = instances_[i];
+  const glm::dmat4 before = inst.brickToWorld;
   inst.brickToWorld = transform * brickToAsset_[i];
-  if (sourceInstances_[instanceSource_[i]] == 1) desc_.instances[instanceSource_[i]].transform = transform;
   data_.moveInstance(i, inst.brickToWorld);
+  // The load's placement checks, on the moved world (its bounds decide where directional rays start).
+  try {
+    checkPlacement(desc_, objects_, instances_, instanceSource_, data_.worldBounds);
+  } catch (const Error&) {
+    inst.brickToWorld = before;
+    data_.moveInstance(i, before);
+    throw;
+  }
+  if (sourceInstances_[instanceSource_[i]] == 1) desc_.instances[instanceSource_[i]].transform = transform;
+}
+
+void Scene::moveLight(std::size_t i, const glm::vec3& position, const glm::vec3& direction) {
+  if (i >= desc_.lights.size())
+    throwBadInput("moveLight: light " + std::to_string(i) + " out of range (the scene has " +
+                  std::to_string(desc_.lights.size()) + ")");
+  LightDesc& light = desc_.lights[i];
+  const std::string where = "moveLight: lights[" + std::to_string(i) + "] '" + light.name + "'";
+  const LightDesc before = light;
+  if (light.type != LightType::Directional) {
+    for (int a = 0; a < 3; ++a)
+      if (!(std::abs(double(position[a])) <= limits::kMaxCoordinate))
+        throwBadInput(where + ".position: coordinates must be between " + num(-limits::kMaxCoordinate) + " and " +
+                      num(limits::kMaxCoordinate) + ", not " + num(position[a]));
+    light.position = position;
+  }
+  if (light.type != LightType::Point) {
+    const double length = glm::length(glm::dvec3(direction));
+    if (!(length > 0.0) || !std::isfinite(length)) throwBadInput(where + ".direction: must be a non-zero vector");
+    light.direction = glm::vec3(glm::dvec3(direction) / length);
+  }
+  try {
+    checkPlacement(desc_, objects_, instances_, instanceSource_, data_.worldBounds);
+  } catch (const Error&) {
+    light = before;
+    throw;
+  }
+}
+
+void Scene::setLightColor(std::size_t i, const glm::vec3& color, float intensity) {
+  if (i >= desc_.lights.size())
+    throwBadInput("setLightColor: light " + std::to_string(i) + " out of range (the scene has " +
+                  std::to_string(desc_.lights.size()) + ")");
+  const std::string where = "setLightColor: lights[" + std::to_string(i) + "] '" + desc_.lights[i].name + "'";
+  for (int a = 0; a < 3; ++a)
+    if (!(color[a] >= 0.0f && color[a] <= limits::kMaxRadiometric))
+      throwBadInput(where + ".color: components must be between 0 and " + num(limits::kMaxRadiometric) + ", not " +
+                    num(color[a]));
+  if (!(intensity >= 0.0f && intensity <= limits::kMaxRadiometric))
+    throwBadInput(where + ".intensity: must be between 0 and " + num(limits::kMaxRadiometric) + ", not " + num(intensity));
+  desc_.lights[i].color = color;
+  desc_.lights[i].intensity = intensity;
 }
 
 }  // namespace vs

@@ -54,9 +54,22 @@ class Scene {
 
   // Places instance i with a new asset-to-world transform (what the scene file's instance transform is:
   // a .vox placement keeps its place within its asset) and updates the trace arrays (refit or rebuild).
-  // desc() follows when the instance is its scene instance's only one. Preconditions: i < instances().size()
-  // and transform affine and invertible; throws vs::Error(BadInput) otherwise.
+  // desc() follows when the instance is its scene instance's only one. Preconditions: i < instances().size(),
+  // transform affine and invertible, and the moved world within the limits load() checks (the instance's
+  // voxels within limits::kMaxCoordinate, shadowed lights within limits::kMaxRayVoxels of it); throws
+  // vs::Error(BadInput), and leaves the instance where it was, otherwise. Then call Tracer::instancesMoved.
   void moveInstance(std::size_t i, const glm::dmat4& transform);
+
+  // Moves light i (a frame loop's sun, or a carried torch): `position` for spot and point lights, `direction`
+  // (where the light travels; normalised here) for directional and spot lights; the other is ignored. Only
+  // the moved light's layers change (FrameRenderer traces them again). Preconditions: i < desc().lights.size(),
+  // position within limits::kMaxCoordinate, direction finite and non-zero, shadowed lights within
+  // limits::kMaxRayVoxels of every object; throws vs::Error(BadInput) naming the field, and keeps the light as
+  // it was, otherwise.
+  void moveLight(std::size_t i, const glm::vec3& position, const glm::vec3& direction);
+  // Sets light i's colour and intensity (no layer changes). Preconditions: i < desc().lights.size(), every
+  // value in [0, limits::kMaxRadiometric]; throws vs::Error(BadInput) naming the field otherwise.
+  void setLightColor(std::size_t i, const glm::vec3& color, float intensity);
 
  private:
   SceneDesc desc_;

@@ -93,6 +93,22 @@ void expectSameAsFreshRender(const Scene& scene, Tracer& tracer, const FrameRend
   EXPECT_EQ(0, std::memcmp(frame.color.data(), truth.color.data(), truth.color.size() * sizeof(glm::vec4))) << step;
 }
 
+// The demo scene with every layer at 128^2 and a 160x90 frame: a frame loop's ten layers, quick to trace.
+Scene smallDemoScene(const std::string& dirName) {
+  const std::vector<std::string> written = writeDemoWorld(test::scratchDir(dirName));
+  SceneDesc desc = parseSceneFile(written.back());
+  for (LightDesc& l : desc.lights)
+    if (l.shadow) l.shadow->resolution = 128;
+  return Scene::load(std::move(desc));
+}
+
+RenderOptions smallFrame() {
+  RenderOptions options;
+  options.width = 160;
+  options.height = 90;
+  return options;
+}
+
 // How many views of `now` differ from `before` in what their rays are made of.
 int changedViews(const std::vector<LightView>& before, const std::vector<LightView>& now) {
   int n = 0;
@@ -108,22 +124,15 @@ int changedViews(const std::vector<LightView>& before, const std::vector<LightVi
 // on both backends: unchanged, a sub-texel camera step, a large camera move (the cascades follow, the lamp and
 // torch do not), an instance moved (everything), and an invalidation.
 TEST(LightingFrames, OnlyChangedLayersAreTracedAgain) {
-  const fs::path dir = test::scratchDir("lighting_frames");
-  const std::vector<std::string> written = writeDemoWorld(dir);
   VulkanOptions vulkanOptions;
   vulkanOptions.validation = true;
   std::vector<std::unique_ptr<Tracer>> tracers;
   tracers.push_back(makeCpuTracer());
   tracers.push_back(makeVulkanTracer(vulkanOptions));  // no device: fails here, loudly
   for (const std::unique_ptr<Tracer>& tracer : tracers) {
-    SceneDesc desc = parseSceneFile(written.back());
-    for (LightDesc& l : desc.lights)
-      if (l.shadow) l.shadow->resolution = 128;
-    Scene scene = Scene::load(std::move(desc));
+    Scene scene = smallDemoScene("lighting_frames");
     tracer->setScene(scene.data());
-    RenderOptions options;
-    options.width = 160;
-    options.height = 90;
+    const RenderOptions options = smallFrame();
     FrameRenderer renderer(*tracer);
     const std::string backend = tracer->backend();
 
@@ -169,6 +178,85 @@ TEST(LightingFrames, OnlyChangedLayersAreTracedAgain) {
     EXPECT_EQ(renderer.render(scene, options).layersTraced, 10) << backend;
     if (VulkanTracer* vulkan = tracer->vulkan()) EXPECT_TRUE(vulkan->validationMessages().empty());
   }
+}
+
+// Lights that move in a frame loop: moving the lamp traces its one layer again, turning the sun its three
+// cascades, a colour change none; what the renderer keeps equals a new renderer's trace, and the image follows
+// the new colour.
+TEST(LightingFrames, MovedLightsTraceTheirOwnLayersAgain) {
+  std::unique_ptr<Tracer> tracer = makeCpuTracer();
+  Scene scene = smallDemoScene("lighting_frames_lights");
+  tracer->setScene(scene.data());
+  const RenderOptions options = smallFrame();
+  FrameRenderer renderer(*tracer);
+  const RenderedFrame first = renderer.render(scene, options);
+  std::size_t sun = 0, lamp = 0;
+  for (std::size_t l = 0; l < scene.desc().lights.size(); ++l) {
+    if (scene.desc().lights[l].type == LightType::Directional) sun = l;
+    if (scene.desc().lights[l].type == LightType::Spot) lamp = l;
+  }
+  const LightDesc lampBefore = scene.desc().lights[lamp];
+  scene.moveLight(lamp, lampBefore.position + glm::vec3(1.5f, 0.0f, -1.0f), lampBefore.direction + glm::vec3(0.1f, 0.0f, 0.0f));
+  const RenderedFrame lampMoved = renderer.render(scene, options);
+  EXPECT_EQ(lampMoved.layersTraced, 1) << "the lamp's one layer";
+  expectSameAsFreshRender(scene, *tracer, renderer, lampMoved, options, "lamp moved");
+  EXPECT_NE(0, std::memcmp(lampMoved.color.data(), first.color.data(), first.color.size() * sizeof(glm::vec4)));
+
+  scene.moveLight(sun, glm::vec3(0.0f), scene.desc().lights[sun].direction + glm::vec3(0.05f, 0.0f, 0.0f));
+  const RenderedFrame sunMoved = renderer.render(scene, options);
+  EXPECT_EQ(sunMoved.layersTraced, 3) << "the sun's three cascades";
+  expectSameAsFreshRender(scene, *tracer, renderer, sunMoved, options, "sun turned");
+
+  scene.setLightColor(lamp, glm::vec3(0.2f, 0.4f, 1.0f), 2.0f * lampBefore.intensity);
+  const RenderedFrame recoloured = renderer.render(scene, options);
+  EXPECT_EQ(recoloured.layersTraced, 0) << "a colour changes no layer";
+  expectSameAsFreshRender(scene, *tracer, renderer, recoloured, options, "lamp recoloured");
+  EXPECT_NE(0, std::memcmp(recoloured.color.data(), sunMoved.color.data(), sunMoved.color.size() * sizeof(glm::vec4)));
+}
+
+// Lights and instances moved at run time meet the limits a scene file's do; a refused move changes nothing.
+TEST(LightingFrames, MovesBeyondTheLimitsAreRefused) {
+  SceneDesc desc = parseSceneFile(cityScene("frames_limits"));
+  // Millimetre voxels, so that a light 90 km away lies beyond the voxels rays stay exact within.
+  desc.instances[0].transform = glm::scale(glm::dmat4(1.0), glm::dvec3(1e-3));
+  LightDesc torch;
+  torch.name = "torch";
+  torch.type = LightType::Point;
+  torch.position = glm::vec3(0.05f, 0.2f, 0.05f);
+  torch.range = 1.0f;
+  torch.shadow = ShadowDesc{};
+  desc.lights.push_back(torch);
+  Scene scene = Scene::load(std::move(desc));
+  auto refused = [](auto&& call, const std::string& field) {
+    try {
+      call();
+      ADD_FAILURE() << field << ": accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  const glm::vec3 before = scene.desc().lights[1].position;
+  refused([&] { scene.moveLight(1, glm::vec3(9e4f, 0.0f, 0.0f), glm::vec3(0.0f)); }, "lights[1].position: the light is");
+  refused([&] { scene.moveLight(1, glm::vec3(2e5f, 0.0f, 0.0f), glm::vec3(0.0f)); }, "lights[1] 'torch'.position");
+  refused([&] { scene.moveLight(1, glm::vec3(std::nanf(""), 0.0f, 0.0f), glm::vec3(0.0f)); }, "'torch'.position");
+  EXPECT_EQ(scene.desc().lights[1].position, before);
+  refused([&] { scene.moveLight(0, glm::vec3(0.0f), glm::vec3(0.0f)); }, "lights[0] 'sun'.direction");
+  refused([&] { scene.moveLight(2, glm::vec3(0.0f), glm::vec3(0.0f, -1.0f, 0.0f)); }, "out of range");
+  refused([&] { scene.setLightColor(0, glm::vec3(-1.0f, 0.0f, 0.0f), 1.0f); }, "'sun'.color");
+  refused([&] { scene.setLightColor(0, glm::vec3(1.0f), std::nanf("")); }, "'sun'.intensity");
+  scene.moveLight(1, glm::vec3(0.1f, 0.3f, 0.1f), glm::vec3(0.0f));
+  EXPECT_EQ(scene.desc().lights[1].position, glm::vec3(0.1f, 0.3f, 0.1f));
+
+  const Aabb bounds = scene.worldBounds();
+  refused([&] { scene.moveInstance(0, glm::translate(glm::dmat4(1.0), glm::dvec3(2e5, 0.0, 0.0)) *
+                                          scene.desc().instances[0].transform); },
+          "the world must lie within");
+  refused([&] { scene.moveInstance(0, glm::translate(glm::dmat4(1.0), glm::dvec3(9e4, 0.0, 0.0)) *
+                                          scene.desc().instances[0].transform); },
+          "lights[1].position: the light is");
+  EXPECT_EQ(scene.worldBounds().min, bounds.min);
+  EXPECT_EQ(scene.worldBounds().max, bounds.max);
 }
 
 // The camera a frame loop sets is checked as the scene file's is, and a refused one leaves the old in place.
