@@ -32,13 +32,19 @@ double voxelsFromBox(const glm::dvec3& p, const VoxelBox& box) {
 // ray origin stays within limits::kMaxRayVoxels of every object, in that object's voxels (a spot light 100 km
 // from a 1 mm voxel plate would otherwise re-base its rays too far from the plate for exact depths).
 // `sources` names each instance's scene-file instance (a .vox asset places several per scene instance).
+// A frame loop's change checks only what it touched: `onlyInstance` (a moved instance; the world bounds kept) or
+// `onlyLight` (a moved light); npos checks everything.
+constexpr std::size_t kAll = std::size_t(-1);
 void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects, std::span<const SceneInstance> instances,
-                    std::span<const std::size_t> sources, const Aabb& worldBounds) {
+                    std::span<const std::size_t> sources, const Aabb& worldBounds, std::size_t onlyInstance = kAll,
+                    std::size_t onlyLight = kAll) {
   const std::string file = desc.file.string();
   auto named = [&](std::size_t i) {
     return "instances[" + std::to_string(sources[i]) + "] (asset '" + desc.instances[sources[i]].asset + "')";
   };
+  auto skipped = [](std::size_t i, std::size_t only) { return only != kAll && i != only; };
   for (std::size_t i = 0; i < instances.size(); ++i) {
+    if (skipped(i, onlyInstance)) continue;
     const VoxelBox box = objects[instances[i].object].brickmap.bounds();
     const std::string where = file + ": " + named(i);
     if (box.empty()) continue;
@@ -46,7 +52,7 @@ void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects,
       glm::dvec4 p((c & 1) ? box.max.x : box.min.x, (c & 2) ? box.max.y : box.min.y, (c & 4) ? box.max.z : box.min.z, 1.0);
       glm::dvec3 w(instances[i].brickToWorld * p);
       for (int a = 0; a < 3; ++a)
-        if (!(std::abs(w[a]) <= limits::kMaxCoordinate))
+        if (!limits::isWorldCoordinate(w[a]))
           throwBadInput(where + ": reaches " + num(w[a]) + " on axis " + std::to_string(a) +
                         "; the world must lie within +-" + num(limits::kMaxCoordinate));
     }
@@ -62,10 +68,11 @@ void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects,
   }
   for (std::size_t li = 0; li < desc.lights.size(); ++li) {
     const LightDesc& light = desc.lights[li];
-    if (!light.shadow) continue;
+    if (!light.shadow || skipped(li, onlyLight)) continue;
     std::vector<glm::dvec3> origins =
         light.type == LightType::Directional ? boundsCorners : std::vector<glm::dvec3>{glm::dvec3(light.position)};
     for (std::size_t i = 0; i < instances.size(); ++i) {
+      if (skipped(i, onlyInstance)) continue;
       const VoxelBox box = objects[instances[i].object].brickmap.bounds();
       if (box.empty()) continue;
       const glm::dmat4 worldToBrick = glm::inverse(instances[i].brickToWorld);
@@ -165,11 +172,14 @@ void Scene::moveInstance(std::size_t i, const glm::dmat4& transform) {
     throwBadInput("moveInstance: instance " + std::to_string(i) + ": transform must be affine and invertible");
   SceneInstance& inst = instances_[i];
   const glm::dmat4 before = inst.brickToWorld;
+  const Aabb boundsBefore = data_.worldBounds;
   inst.brickToWorld = transform * brickToAsset_[i];
   data_.moveInstance(i, inst.brickToWorld);
-  // The load's placement checks, on the moved world (its bounds decide where directional rays start).
+  // The load's placement checks, on the moved world: the moved instance alone, unless the world's bounds (where
+  // directional rays start) changed with it.
+  const bool sameBounds = data_.worldBounds.min == boundsBefore.min && data_.worldBounds.max == boundsBefore.max;
   try {
-    checkPlacement(desc_, objects_, instances_, instanceSource_, data_.worldBounds);
+    checkPlacement(desc_, objects_, instances_, instanceSource_, data_.worldBounds, sameBounds ? i : kAll);
   } catch (const Error&) {
     inst.brickToWorld = before;
     data_.moveInstance(i, before);
@@ -187,7 +197,7 @@ void Scene::moveLight(std::size_t i, const glm::vec3& position, const glm::vec3&
   const LightDesc before = light;
   if (light.type != LightType::Directional) {
     for (int a = 0; a < 3; ++a)
-      if (!(std::abs(double(position[a])) <= limits::kMaxCoordinate))
+      if (!limits::isWorldCoordinate(position[a]))
         throwBadInput(where + ".position: coordinates must be between " + num(-limits::kMaxCoordinate) + " and " +
                       num(limits::kMaxCoordinate) + ", not " + num(position[a]));
     light.position = position;
@@ -198,7 +208,7 @@ void Scene::moveLight(std::size_t i, const glm::vec3& position, const glm::vec3&
     light.direction = glm::vec3(glm::dvec3(direction) / length);
   }
   try {
-    checkPlacement(desc_, objects_, instances_, instanceSource_, data_.worldBounds);
+    checkPlacement(desc_, objects_, instances_, instanceSource_, data_.worldBounds, kAll, i);
   } catch (const Error&) {
     light = before;
     throw;

@@ -642,7 +642,7 @@ void checkCamera(const CameraDesc& c, const std::string& where) {
   auto fail = [&](const char* field, const std::string& what) { throwBadInput(where + "." + field + ": " + what); };
   auto checkPoint = [&](const glm::vec3& p, const char* field) {
     for (int a = 0; a < 3; ++a)
-      if (!(std::abs(double(p[a])) <= limits::kMaxCoordinate))
+      if (!limits::isWorldCoordinate(p[a]))
         fail(field, "coordinates must be between " + fmt(-limits::kMaxCoordinate) + " and " +
                         fmt(limits::kMaxCoordinate) + ", not " + fmt(p[a]));
   };

@@ -5,6 +5,7 @@
 #ifndef VOXSHADOW_VOXEL_VALID_RANGE_H
 #define VOXSHADOW_VOXEL_VALID_RANGE_H
 
+#include <cmath>
 #include <cstdint>
 
 namespace vs::limits {
@@ -13,6 +14,8 @@ namespace vs::limits {
 // of an instance's world box lie within [-kMaxCoordinate, kMaxCoordinate] on each axis: an open world of
 // 200 km at metre units, with float coordinates still resolving about a centimetre at its edge.
 inline constexpr double kMaxCoordinate = 1e5;
+// Whether v is a world coordinate within that range (NaN is not).
+inline bool isWorldCoordinate(double v) { return std::abs(v) <= kMaxCoordinate; }
 
 // An asset's voxel size (the length of each axis of its index-to-object map) and an instance's scale (the
 // length of each axis of its transform): a factor of 10^4 either way covers millimetre detail in metre scenes
