@@ -26,10 +26,6 @@ bool isFinite(const glm::dmat4& m) {
   return true;
 }
 
-// Rebuild instead of refit once the refitted tree costs this much more than a fresh build did: moved
-// instances stretch boxes, and past about 1.5x a rebuild (cheap for instance counts) pays for itself.
-constexpr float kRefitCostLimit = 1.5f;
-
 }  // namespace
 
 gpu::InstanceRecord makeInstanceRecord(const glm::dmat4& brickToWorld, const VoxelBox& objectVoxels,
@@ -119,19 +115,31 @@ SceneData SceneData::build(std::span<const Brickmap* const> brickmaps, std::span
   return scene;
 }
 
-void SceneData::moveInstance(std::size_t i, const glm::dmat4& brickToWorld) {
+SceneData::Placement SceneData::placeInstance(std::size_t i, const glm::dmat4& brickToWorld) const {
   if (i >= instances.size()) throwBadInput("moveInstance: instance " + std::to_string(i) + " out of range");
-  std::uint32_t object = instances[i].info.x;
+  const std::uint32_t object = instances[i].info.x;
   const gpu::ObjectRecord& obj = objects[object];
-  VoxelBox voxels{glm::ivec3(obj.voxelMin), glm::ivec3(obj.voxelMax)};
-  Aabb box;
-  instances[i] = makeInstanceRecord(brickToWorld, voxels, object, static_cast<std::uint32_t>(i), &box);
-  instanceBounds[i] = box;
-  worldBounds = Aabb{};
-  for (const Aabb& b : instanceBounds)
-    if (!b.empty()) worldBounds.extend(b);
+  const VoxelBox voxels{glm::ivec3(obj.voxelMin), glm::ivec3(obj.voxelMax)};
+  Placement p;
+  p.record = makeInstanceRecord(brickToWorld, voxels, object, static_cast<std::uint32_t>(i), &p.box);
+  for (std::size_t k = 0; k < instanceBounds.size(); ++k) {
+    const Aabb& b = k == i ? p.box : instanceBounds[k];
+    if (!b.empty()) p.worldBounds.extend(b);
+  }
+  return p;
+}
+
+void SceneData::applyPlacement(std::size_t i, const Placement& placement) {
+  if (i >= instances.size()) throwBadInput("moveInstance: instance " + std::to_string(i) + " out of range");
+  instances[i] = placement.record;
+  instanceBounds[i] = placement.box;
+  worldBounds = placement.worldBounds;
   bvh.refit(instanceBounds);
-  if (bvh.sahCost() > bvh.builtSahCost() * kRefitCostLimit) bvh = Bvh::build(instanceBounds);
+  if (bvh.shouldRebuild()) bvh = Bvh::build(instanceBounds);
+}
+
+void SceneData::moveInstance(std::size_t i, const glm::dmat4& brickToWorld) {
+  applyPlacement(i, placeInstance(i, brickToWorld));
 }
 
 }  // namespace vs

@@ -41,7 +41,20 @@ struct SceneData {
   // Throws vs::Error(BadInput) otherwise.
   static SceneData build(std::span<const Brickmap* const> brickmaps, std::span<const SceneInstance> instances);
 
-  // Moves instance i and refits the BVH (rebuilding it when refit quality drops).
+  // Where instance i would be after a move, computed aside from the arrays, so that a caller can check the
+  // moved world before anything changes: the instance's record and world box, and the world's new bounds.
+  struct Placement {
+    gpu::InstanceRecord record{};
+    Aabb box;
+    Aabb worldBounds;
+  };
+  // Preconditions: i < instances.size(), brickToWorld finite and invertible; throws vs::Error(BadInput)
+  // otherwise, and changes nothing.
+  Placement placeInstance(std::size_t i, const glm::dmat4& brickToWorld) const;
+  // Takes a placement of instance i made by placeInstance on these arrays, and refits the BVH (rebuilding
+  // it when refit quality drops). Precondition: i < instances.size().
+  void applyPlacement(std::size_t i, const Placement& placement);
+  // placeInstance, then applyPlacement: a refused move changes nothing.
   void moveInstance(std::size_t i, const glm::dmat4& brickToWorld);
 };
 

@@ -16,9 +16,11 @@ std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera) {
   tbb::parallel_for(0, camera.height, [&](int y) {
     for (int x = 0; x < camera.width; ++x) {
       const glm::dvec3 d = pixelDirection(camera, x, y);
-      const double tMax = camera.farPlane / glm::dot(d, camera.forward);
-      rays[std::size_t(y) * std::size_t(camera.width) + std::size_t(x)] =
-          gpu::makeTraceRay(camera.position, d, 0.0f, float(tMax));
+      // Between the near and far planes, as a rasteriser clips: the cascades' splits start at `near`, so
+      // whatever the camera sees lies in one of them.
+      const double forward = glm::dot(d, camera.forward);
+      rays[std::size_t(y) * std::size_t(camera.width) + std::size_t(x)] = gpu::makeTraceRay(
+          camera.position, d, float(camera.nearPlane / forward), float(camera.farPlane / forward));
     }
   });
   return rays;

@@ -19,7 +19,7 @@ struct GBuffer {
 };
 
 // The primary ray of every pixel, row by row: from the camera position (split into two floats, as a view's
-// eye), through the pixel centre, from t = 0 to the far plane.
+// eye), through the pixel centre, from the near plane to the far plane (clipped as a rasteriser clips).
 std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera);
 
 // Traces the primary rays and resolves each hit into world position (origin + t * direction in double),

@@ -4,9 +4,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <utility>
 
 #include "lighting/vulkan_lighting.h"
 #include "voxel/error.h"
+#include "voxel/valid_range.h"
 
 namespace vs {
 
@@ -25,6 +27,28 @@ int shadeMode(DebugView d) {
 }
 
 }  // namespace
+
+void checkRenderOptions(const RenderOptions& options) {
+  for (auto [name, side] : {std::pair{"width", options.width}, std::pair{"height", options.height}})
+    if (side < 0 || side > limits::kMaxImageSide)
+      throwBadInput(std::string("RenderOptions.") + name + ": must be 0 (the camera's) or 1.." +
+                    std::to_string(limits::kMaxImageSide) + ", not " + std::to_string(side));
+  if (options.shadows != ShadowSource::Maps && options.shadows != ShadowSource::Raytraced)
+    throwBadInput("RenderOptions.shadows: " + std::to_string(int(options.shadows)) +
+                  " is no ShadowSource (Maps or Raytraced)");
+  switch (options.debug) {
+    case DebugView::None:
+    case DebugView::Cascades:
+    case DebugView::Shadow:
+    case DebugView::Normals:
+    case DebugView::Layer: break;
+    default:
+      throwBadInput("RenderOptions.debug: " + std::to_string(int(options.debug)) +
+                    " is no DebugView (None, Cascades, Shadow, Normals or Layer)");
+  }
+  if (options.debug == DebugView::Layer && options.debugLayer < 0)
+    throwBadInput("RenderOptions.debugLayer: must be 0 or more, not " + std::to_string(options.debugLayer));
+}
 
 struct FrameRenderer::VulkanPass {
   explicit VulkanPass(VulkanContext& context) : lighting(context) {}
@@ -70,6 +94,7 @@ int FrameRenderer::traceChangedLayers(const std::vector<LightView>& views) {
 
 RenderedFrame FrameRenderer::render(const Scene& scene, const RenderOptions& options) {
   const SceneDesc& desc = scene.desc();
+  checkRenderOptions(options);
   if (!desc.camera) throwBadInput(desc.file.string() + ": camera: a scene needs a camera to be rendered");
   const CameraFrame camera = cameraFrame(*desc.camera, options.width, options.height);
   const bool raytraced = options.shadows == ShadowSource::Raytraced;

@@ -20,11 +20,16 @@ enum class ShadowSource { Maps, Raytraced };
 enum class DebugView { None, Cascades, Shadow, Normals, Layer };
 
 struct RenderOptions {
-  int width = 0, height = 0;  // 0: the scene camera's
+  int width = 0, height = 0;  // 0: the scene camera's; else 1..limits::kMaxImageSide
   ShadowSource shadows = ShadowSource::Maps;
   DebugView debug = DebugView::None;
   int debugLayer = 0;  // DebugView::Layer: which shadow layer (light view order)
 };
+
+// Refuses (vs::Error(BadInput), "RenderOptions.<field>: <problem>") what render() cannot draw: a width or
+// height below 0 or above limits::kMaxImageSide, a ShadowSource or DebugView that names no enumerator (a cast
+// from an unchecked integer), and, for DebugView::Layer, a negative debugLayer. render() calls it first.
+void checkRenderOptions(const RenderOptions& options);
 
 struct RenderTimings {
   double shadowMs = 0.0;      // shadow layers

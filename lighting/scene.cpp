@@ -165,26 +165,30 @@ void Scene::moveInstance(std::size_t i, const glm::dmat4& transform) {
   if (i >= instances_.size())
     throwBadInput("moveInstance: instance " + std::to_string(i) + " out of range (the scene has " +
                   std::to_string(instances_.size()) + ")");
+  const std::string where = "moveInstance: instance " + std::to_string(i);
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      if (!std::isfinite(transform[c][r]))
+        throwBadInput(where + ": transform[" + std::to_string(c) + "][" + std::to_string(r) + "] is " +
+                      num(transform[c][r]) + "; every entry must be finite");
   glm::dmat3 linear(transform);
   double det = glm::determinant(linear);
   if (!std::isfinite(det) || det == 0.0 || transform[0][3] != 0.0 || transform[1][3] != 0.0 ||
       transform[2][3] != 0.0 || transform[3][3] != 1.0)
-    throwBadInput("moveInstance: instance " + std::to_string(i) + ": transform must be affine and invertible");
-  SceneInstance& inst = instances_[i];
-  const glm::dmat4 before = inst.brickToWorld;
-  const Aabb boundsBefore = data_.worldBounds;
-  inst.brickToWorld = transform * brickToAsset_[i];
-  data_.moveInstance(i, inst.brickToWorld);
+    throwBadInput(where + ": transform must be affine and invertible");
+  // Everything is computed and checked aside first and the scene changes only after every check passed, so
+  // a refused move leaves each array, bound and the BVH as they were.
+  const glm::dmat4 brickToWorld = transform * brickToAsset_[i];
+  const SceneData::Placement placement = data_.placeInstance(i, brickToWorld);
+  std::vector<SceneInstance> moved(instances_);
+  moved[i].brickToWorld = brickToWorld;
   // The load's placement checks, on the moved world: the moved instance alone, unless the world's bounds (where
   // directional rays start) changed with it.
-  const bool sameBounds = data_.worldBounds.min == boundsBefore.min && data_.worldBounds.max == boundsBefore.max;
-  try {
-    checkPlacement(desc_, objects_, instances_, instanceSource_, data_.worldBounds, sameBounds ? i : kAll);
-  } catch (const Error&) {
-    inst.brickToWorld = before;
-    data_.moveInstance(i, before);
-    throw;
-  }
+  const bool sameBounds =
+      placement.worldBounds.min == data_.worldBounds.min && placement.worldBounds.max == data_.worldBounds.max;
+  checkPlacement(desc_, objects_, moved, instanceSource_, placement.worldBounds, sameBounds ? i : kAll);
+  data_.applyPlacement(i, placement);
+  instances_[i].brickToWorld = brickToWorld;
   if (sourceInstances_[instanceSource_[i]] == 1) desc_.instances[instanceSource_[i]].transform = transform;
 }
 
@@ -194,23 +198,25 @@ void Scene::moveLight(std::size_t i, const glm::vec3& position, const glm::vec3&
                   std::to_string(desc_.lights.size()) + ")");
   LightDesc& light = desc_.lights[i];
   const std::string where = "moveLight: lights[" + std::to_string(i) + "] '" + light.name + "'";
-  const LightDesc before = light;
+  // The new values are checked on a copy and only then take the light's place.
+  LightDesc moved = light;
   if (light.type != LightType::Directional) {
     for (int a = 0; a < 3; ++a)
       if (!limits::isWorldCoordinate(position[a]))
         throwBadInput(where + ".position: coordinates must be between " + num(-limits::kMaxCoordinate) + " and " +
                       num(limits::kMaxCoordinate) + ", not " + num(position[a]));
-    light.position = position;
+    moved.position = position;
   }
   if (light.type != LightType::Point) {
     const double length = glm::length(glm::dvec3(direction));
-    if (!(length > 0.0) || !std::isfinite(length)) throwBadInput(where + ".direction: must be a non-zero vector");
-    light.direction = glm::vec3(glm::dvec3(direction) / length);
+    if (!(length > 0.0) || !std::isfinite(length)) throwBadInput(where + ".direction: must be a finite non-zero vector");
+    moved.direction = glm::vec3(glm::dvec3(direction) / length);
   }
+  std::swap(light, moved);
   try {
     checkPlacement(desc_, objects_, instances_, instanceSource_, data_.worldBounds, kAll, i);
   } catch (const Error&) {
-    light = before;
+    std::swap(light, moved);
     throw;
   }
 }

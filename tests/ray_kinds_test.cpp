@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
 #include <random>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -448,6 +449,78 @@ TEST(RayKindsShared, HostSplitsRoundExactly) {
                          glm::dot(glm::dvec4(b.row2), glm::dvec4(centre, 1.0)));
     ASSERT_LE(glm::length(rel - (world - anchor)), 1e-4) << "instance at " << o.x << " " << o.y << " " << o.z;
   }
+}
+
+// FLT_MAX and infinity are how callers write "unbounded": such rays, and any tMax beyond the scene, give the
+// records of a ray whose tMax is the end of the scene, bit for bit on every backend, and their hits are the
+// exact reference's hits on the unbounded ray.
+TEST_F(RayKinds, UnboundedRaysReachTheEndOfTheScene) {
+  const float unbounded[] = {std::numeric_limits<float>::max(), std::numeric_limits<float>::infinity(), 3.0e38f, 1.0e30f};
+  for (glm::dvec3 offset : {glm::dvec3(0.0), glm::dvec3(1.0e4, -3.0e3, 2.0e4)}) {
+    TestScene scene = instancedScene(offset);
+    SCOPED_TRACE("offset " + std::to_string(offset.x));
+    std::vector<gpu::TraceRay> bounded = rayBattery(scene, 20000, 23);
+    const float sceneReach = 4.0f * glm::length(scene.data.worldBounds.max - scene.data.worldBounds.min) +
+                             glm::length(glm::max(glm::abs(scene.data.worldBounds.min), glm::abs(scene.data.worldBounds.max)));
+    for (gpu::TraceRay& r : bounded) r.originLow.w = sceneReach;  // past the scene from every start
+    auto reference = makeCpuTracer({CpuTracePath::Reference, 2});
+    auto fast = makeCpuTracer();
+    for (Tracer* t : {reference.get(), fast.get(), vulkan_}) t->setScene(scene.data);
+    const Results expected = traceBoth(*reference, bounded);
+    std::size_t hits = 0;
+    for (const gpu::RayHit& h : expected.hits) hits += h.hit;
+    EXPECT_GT(hits, bounded.size() / 4);
+    for (float tMax : unbounded) {
+      std::vector<gpu::TraceRay> rays = bounded;
+      for (gpu::TraceRay& r : rays) r.originLow.w = tMax;
+      for (Tracer* t : {reference.get(), fast.get(), vulkan_}) {
+        SCOPED_TRACE(t->backend() + " with tMax " + std::to_string(tMax));
+        Results r = traceBoth(*t, rays);
+        EXPECT_EQ(std::memcmp(r.hits.data(), expected.hits.data(), r.hits.size() * sizeof(gpu::RayHit)), 0)
+            << "first difference: " << firstDifference(r.hits, expected.hits);
+        EXPECT_EQ(r.occluded, expected.occluded);
+      }
+    }
+    // The exact reference, given the ray in double to far past the scene: every hit it finds, the tracers find
+    // at its t.
+    test::ExactReference exact(scene.brickmapPointers(), scene.instances);
+    std::size_t compared = 0;
+    for (std::size_t i = 0; i < bounded.size(); ++i) {
+      const gpu::TraceRay& r = bounded[i];
+      test::ExactRay er;
+      er.o = glm::dvec3(glm::vec3(r.originHigh)) + glm::dvec3(glm::vec3(r.originLow));
+      er.d = glm::dvec3(glm::vec3(r.direction));
+      er.tMin = r.originHigh.w;
+      er.tMax = 10.0 * double(sceneReach);  // far past the scene: the reference's own "unbounded"
+      const test::ExactHit e = exact.trace(er);
+      const gpu::RayHit& h = expected.hits[i];
+      // Edge and corner contacts (at either tracer's t) may be decided either way, as in the test above.
+      if (!e.hit || exact.grazesNear(er, e.t, 2.0, 1e-3) || (h.hit && exact.grazesNear(er, double(h.t), 2.0, 1e-3)))
+        continue;
+      ++compared;
+      ASSERT_EQ(h.hit, 1u) << "ray " << i << ": the reference hits at " << e.t;
+      EXPECT_NEAR(double(h.t) * e.voxelsPerT, e.t * e.voxelsPerT, 1e-3 + 1e-6 * std::abs(e.t * e.voxelsPerT)) << "ray " << i;
+    }
+    EXPECT_GT(compared, bounded.size() / 5);
+  }
+  // The plain case: a ray from outside along +x, unbounded, hits the first voxel at t = 2.
+  TestScene box;
+  box.brickmaps.push_back(test::boxObject({0, 0, 0}, {7, 7, 7}, 9));
+  box.instances.push_back({0u, glm::dmat4(1.0)});
+  box.finish();
+  auto cpu = makeCpuTracer();
+  cpu->setScene(box.data);
+  vulkan_->setScene(box.data);
+  for (float tMax : unbounded) {
+    const std::vector<gpu::TraceRay> one = {gpu::makeTraceRay({-2.0, 0.5, 0.5}, {1, 0, 0}, 0.0f, tMax)};
+    for (Tracer* t : {cpu.get(), vulkan_}) {
+      Results r = traceBoth(*t, one);
+      EXPECT_EQ(r.hits[0].hit, 1u) << t->backend() << " tMax " << tMax;
+      EXPECT_EQ(r.hits[0].t, 2.0f) << t->backend() << " tMax " << tMax;
+      EXPECT_EQ(r.occluded[0], 1u) << t->backend() << " tMax " << tMax;
+    }
+  }
+  EXPECT_TRUE(vulkan_->vulkan()->validationMessages().empty());
 }
 
 TEST_F(RayKinds, MismatchedOutputsAreRefused) {

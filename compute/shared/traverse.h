@@ -559,6 +559,34 @@ RayHit vsHitRecord(WorldRay ray, bool hit, float tHit, uint instanceHit, ivec3 v
   return h;
 }
 
+// A caller's tMax cut where the ray o + t*d leaves the scene's bounds (the BVH root's box, grown by more than the
+// rounding of this float slab test, and the exit t widened likewise, so no voxel the exact ray reaches lies
+// past the cut). FLT_MAX and infinity are how callers write "unbounded": they, and every tMax beyond the scene,
+// take the walk of a ray that ends with the scene, since culling pads grow with tMax and one near float's limit
+// would swallow the world. A ray that never enters the bounds (or an empty scene) is cut to tMin: its segment
+// in the scene is empty. NaN stays NaN (vsRayIsFinite refuses it).
+float vsSceneEndT(vec3 o, vec3 d, float tMin, float tMax) {
+  float cut = tMin;
+  if (nodeCount > 0u) {
+    BvhNode root = VS_READ_NODE(0u);
+    vec3 reach = max(abs(root.boundsMin), abs(root.boundsMax));
+    VS_PRECISE float scale = max(max(abs(o.x), abs(o.y)), abs(o.z)) + max(max(reach.x, reach.y), reach.z);
+    float pad = scale * (1.0f / 1048576.0f);
+    float t0 = tMin;
+    float t1 = VS_T_INFINITY;
+    float inv = 0.0f;
+    bool inX = vsClipAxis(o.x, d.x, root.boundsMin.x - pad, root.boundsMax.x + pad, false, t0, t1, inv);
+    bool inY = vsClipAxis(o.y, d.y, root.boundsMin.y - pad, root.boundsMax.y + pad, false, t0, t1, inv);
+    bool inZ = vsClipAxis(o.z, d.z, root.boundsMin.z - pad, root.boundsMax.z + pad, false, t0, t1, inv);
+    VS_PRECISE float widened = t1 + abs(t1) * (1.0f / 1048576.0f);
+    // Selects, not min and max, whose choice between -0 and +0 differs between GLSL and C++.
+    float end = widened > tMin ? widened : tMin;
+    end = end < VS_T_INFINITY ? end : VS_T_INFINITY;
+    cut = inX && inY && inZ && t0 <= t1 ? end : tMin;
+  }
+  return tMax > cut ? cut : tMax;
+}
+
 // The world ray of a caller's TraceRay.
 WorldRay vsTraceRayToWorld(TraceRay r) {
   WorldRay ray;
@@ -567,7 +595,7 @@ WorldRay vsTraceRayToWorld(TraceRay r) {
   ray.start = vec3(0.0f);
   ray.d = vec3(r.direction);
   ray.tMin = r.originHigh.w;
-  ray.tMax = r.originLow.w;
+  ray.tMax = vsSceneEndT(vsCullOrigin(ray), ray.d, ray.tMin, r.originLow.w);
   return ray;
 }
 
