@@ -18,6 +18,7 @@
 #include "compute/shared/trace_view.h"
 #include "voxel/error.h"
 #include "voxel/valid_range.h"
+#include "voxel/vox_reader.h"
 
 namespace vs {
 
@@ -368,8 +369,12 @@ class Parser {
       }
     }
     if (auto f = a.find("frame"); f != a.end()) {
-      asset.frame = integer(*f, key(path, "frame"));
-      if (asset.frame < 0) fail(key(path, "frame"), "must not be negative");
+      // Checked here rather than by integer(), whose int range is not the frames a .vox file can hold.
+      const std::string range = "must be a whole number from 0 to " + std::to_string(kVoxMaxFrame);
+      if (!f->is_number()) fail(key(path, "frame"), range + ", not " + typeName(*f));
+      double v = f->get<double>();
+      if (!(v >= 0.0 && v <= kVoxMaxFrame) || v != std::floor(v)) fail(key(path, "frame"), range + ", not " + fmt(v));
+      asset.frame = int(v);
     }
   }
 

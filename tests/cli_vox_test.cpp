@@ -356,7 +356,10 @@ TEST(CliVox, SceneFileKeysForVoxAssets) {
       {R"({ "file": "t.vox", "model": -1 })", "assets.t.model: a model index must not be negative"},
       {R"({ "file": "t.vox", "model": 3 })", "assets.t: " },
       {R"({ "file": "t.vox", "model": "nobody" })", "no visible shape named 'nobody'"},
-      {R"({ "file": "t.vox", "frame": -2 })", "assets.t.frame: must not be negative"},
+      {R"({ "file": "t.vox", "frame": -2 })", "assets.t.frame: must be a whole number from 0 to 1000000, not -2"},
+      {R"({ "file": "t.vox", "frame": 1e12 })", "assets.t.frame: must be a whole number from 0 to 1000000, not 1e+12"},
+      {R"({ "file": "t.vox", "frame": 2.5 })", "assets.t.frame: must be a whole number from 0 to 1000000, not 2.5"},
+      {R"({ "file": "t.vox", "frame": "3" })", "assets.t.frame: must be a whole number from 0 to 1000000, not a string"},
   };
   for (const Bad& b : bad) {
     try {
@@ -372,6 +375,76 @@ TEST(CliVox, SceneFileKeysForVoxAssets) {
   EXPECT_EQ(cli("info " + quote(scene(R"({ "file": "t.vox" })")), out), 0) << out;
   EXPECT_TRUE(contains(out, "asset t: ")) << out;
   EXPECT_TRUE(contains(out, "3 objects")) << out;
+}
+
+// An animation as MagicaVoxel 0.98 and older store it: a PACK chunk, one model per frame, no scene graph.
+VoxWriteFile packFile() {
+  VoxWriteFile w;
+  w.version = 150;
+  w.pack = 3;
+  w.models = {block({2, 2, 2}, 10), block({3, 3, 3}, 20), block({4, 4, 4}, 30)};
+  return w;
+}
+
+std::size_t occurrences(const std::string& s, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t at = s.find(what); at != std::string::npos; at = s.find(what, at + 1)) ++n;
+  return n;
+}
+
+TEST(CliVox, PackFramesInInfoConvertAndScenes) {
+  const fs::path dir = test::scratchDir("cli_vox_pack");
+  const fs::path vox = dir / "rex.vox";
+  writeVoxFile(vox, packFile());
+  const VoxFile f = readVoxFile(vox.string());
+  std::string out;
+  ASSERT_EQ(cli("info " + quote(vox), out), 0) << out;
+  EXPECT_TRUE(contains(out, "3 models (PACK animation frames 0..2, frame 0 shown), 1 instance")) << out;
+  EXPECT_TRUE(contains(out, "note: PACK animation: the 3 models are frames 0..2, frame 0 shown")) << out;
+  json j = infoJson(vox);
+  EXPECT_EQ(j["animation"]["frames"], 3);
+  EXPECT_EQ(j["animation"]["frameShown"], 0);
+  EXPECT_EQ(j["pack"], 3);
+  ASSERT_EQ(j["instances"].size(), 1u);
+  EXPECT_EQ(j["instances"][0]["model"], 0);
+
+  ASSERT_EQ(cli("convert " + quote(vox) + " " + quote(dir / "rex.vdb") + " --frame 2", out), 0) << out;
+  EXPECT_TRUE(contains(out, "frame 2 of the PACK animation (the frame chosen)")) << out;
+  EXPECT_TRUE(contains(out, "frame 2 shown")) << out;
+  EXPECT_EQ(cli("convert " + quote(vox) + " " + quote(dir / "past.vdb") + " --frame 3", out), 2) << out;
+  EXPECT_TRUE(contains(out, "rex.vox: frame 3 is beyond the 3 frames of its PACK animation (0..2)")) << out;
+  EXPECT_EQ(occurrences(out, "rex.vox"), 1u) << out;
+  EXPECT_TRUE(test::leftovers(dir, "past").empty()) << out;
+  // Bad values get one message, whatever CLI11 would make of them.
+  for (const char* bad : {"-1", "99999999999", "1000001", "1.5", "x", "1e3"}) {
+    SCOPED_TRACE(bad);
+    EXPECT_EQ(cli("convert " + quote(vox) + " " + quote(dir / "bad.vdb") + " --frame " + bad, out), 2) << out;
+    EXPECT_TRUE(contains(out, "--frame: must be a whole number from 0 to 1000000")) << out;
+    EXPECT_FALSE(contains(out, "Could not convert")) << out;
+    EXPECT_FALSE(contains(out, "not in range")) << out;
+  }
+  EXPECT_TRUE(test::leftovers(dir, "bad").empty());
+
+  // Scene files: "frame" picks the pose; the default is frame 0.
+  auto scene = [&](const std::string& asset) {
+    writeText(dir / "s.json", R"({ "version": 1, "assets": { "rex": )" + asset + R"( }, "instances": [ { "asset": "rex" } ] })");
+    return dir / "s.json";
+  };
+  Scene first = Scene::load(scene(R"({ "file": "rex.vox" })"));
+  ASSERT_EQ(first.objects().size(), 1u);
+  ASSERT_EQ(first.instances().size(), 1u);
+  EXPECT_EQ(first.objects()[0].brickmap.solidCount(), f.models[0].voxels.size());
+  Scene last = Scene::load(scene(R"({ "file": "rex.vox", "frame": 2 })"));
+  ASSERT_EQ(last.objects().size(), 1u);
+  EXPECT_EQ(last.objects()[0].brickmap.solidCount(), f.models[2].voxels.size());
+  try {
+    Scene::load(scene(R"({ "file": "rex.vox", "frame": 5 })"));
+    ADD_FAILURE() << "frame 5 accepted";
+  } catch (const Error& e) {
+    EXPECT_TRUE(contains(e.what(), "s.json: assets.rex: ")) << e.what();
+    EXPECT_TRUE(contains(e.what(), "rex.vox: frame 5 is beyond the 3 frames of its PACK animation (0..2)")) << e.what();
+    EXPECT_EQ(occurrences(e.what(), "rex.vox"), 1u) << e.what();
+  }
 }
 
 }  // namespace

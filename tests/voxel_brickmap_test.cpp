@@ -1,5 +1,7 @@
 // Brickmap build, queries and edits against a plain reference map.
 #include <cstring>
+#include <functional>
+#include <limits>
 #include <map>
 #include <random>
 #include <tuple>
@@ -259,6 +261,114 @@ TEST(Brickmap, EditsOutsideSectorKeepOtherIndices) {
   EXPECT_EQ(bm.sectors()[0].firstBrick, sectors0[0].firstBrick);
   for (int i = 0; i < 4; ++i) EXPECT_EQ(std::memcmp(&bm.bricks()[std::size_t(i)], &bricks0[std::size_t(i)], sizeof(vs::gpu::Brick)), 0);
   EXPECT_TRUE(bm.isSolid(glm::ivec3(40, 20, 0)));
+}
+
+// Material 0 is empty everywhere else (queries, payload bytes, the palette), so an edit to 0 clears.
+TEST(Brickmap, MaterialZeroClears) {
+  vs::Brickmap bm;
+  bm.fillBox({glm::ivec3(0), glm::ivec3(8, 8, 8)}, 3);
+  bm.setVoxel(glm::ivec3(1, 2, 3), 0);
+  bm.checkConsistency();
+  EXPECT_FALSE(bm.isSolid(glm::ivec3(1, 2, 3)));
+  EXPECT_EQ(bm.material(glm::ivec3(1, 2, 3)), 0);
+  EXPECT_EQ(bm.solidCount(), 511u);
+  bm.fillBox({glm::ivec3(0), glm::ivec3(8, 8, 4)}, 0);
+  bm.checkConsistency();
+  EXPECT_EQ(bm.solidCount(), 256u);
+  EXPECT_FALSE(bm.isSolid(glm::ivec3(5, 5, 3)));
+  EXPECT_TRUE(bm.isSolid(glm::ivec3(5, 5, 4)));
+  EXPECT_EQ(bm.bounds().min, glm::ivec3(0, 0, 4));
+  // On empty space it adds nothing.
+  vs::Brickmap empty;
+  empty.setVoxel(glm::ivec3(4), 0);
+  empty.fillBox({glm::ivec3(0), glm::ivec3(3)}, 0);
+  empty.checkConsistency();
+  EXPECT_EQ(empty.solidCount(), 0u);
+  EXPECT_TRUE(empty.bricks().empty());
+}
+
+std::string refusal(const std::function<void()>& edit) {
+  try {
+    edit();
+  } catch (const vs::Error& e) {
+    EXPECT_EQ(e.kind(), vs::ErrorKind::BadInput);
+    return e.what();
+  }
+  ADD_FAILURE() << "accepted";
+  return "";
+}
+
+bool same(const Snapshot& a, const Snapshot& b) { return a.arrays == b.arrays; }
+
+// v + 1 of the largest int wraps: such a voxel was a silent no-op while the smallest was refused.
+TEST(Brickmap, VoxelsAtEitherEndOfIntAreRefusedAlike) {
+  vs::Brickmap bm;
+  bm.fillBox({glm::ivec3(0), glm::ivec3(10)}, 2);
+  const Snapshot s0 = snapshot(bm);
+  const int big = std::numeric_limits<int>::max(), small = std::numeric_limits<int>::min();
+  struct Case {
+    glm::ivec3 v;
+    const char* text;
+  } cases[] = {{{big, 0, 0}, "(2147483647, 0, 0)"},
+               {{small, 0, 0}, "(-2147483648, 0, 0)"},
+               {{0, 0, big}, "(0, 0, 2147483647)"},
+               {{1 << 30, 1, 2}, "(1073741824, 1, 2)"}};
+  for (const Case& c : cases) {
+    for (int op = 0; op < 3; ++op) {
+      SCOPED_TRACE(std::string(c.text) + " op " + std::to_string(op));
+      std::string e = refusal([&] {
+        if (op == 0) bm.setVoxel(c.v, 5);
+        else if (op == 1) bm.setVoxel(c.v, 0);
+        else bm.clearVoxel(c.v);
+      });
+      EXPECT_NE(e.find(std::string("brickmap: voxel ") + c.text + " is outside the editable range -1073741824..1073741823"),
+                std::string::npos) << e;
+      EXPECT_TRUE(same(s0, snapshot(bm)));
+    }
+  }
+  // The last voxel inside the range is editable.
+  vs::Brickmap edge;
+  edge.setVoxel(glm::ivec3((1 << 30) - 1, -(1 << 30), 0), 7);
+  edge.checkConsistency();
+  EXPECT_EQ(edge.material(glm::ivec3((1 << 30) - 1, -(1 << 30), 0)), 7);
+}
+
+TEST(Brickmap, OversizeEditsAreRefusedUpFrontAndChangeNothing) {
+  vs::Brickmap bm;
+  bm.fillBox({glm::ivec3(0), glm::ivec3(20, 9, 9)}, 2);
+  bm.setVoxel(glm::ivec3(3, 3, 3), 4);
+  bm.clearVoxel(glm::ivec3(5, 5, 5));  // partial bricks, payload blocks and free lists all in use
+  const Snapshot s0 = snapshot(bm);
+  const std::uint64_t solid0 = bm.solidCount();
+  std::string e = refusal([&] { bm.fillBox({glm::ivec3(0), glm::ivec3(4096)}, 1); });
+  EXPECT_NE(e.find("brickmap: fill box [0,0,0]..[4096,4096,4096] is 4096 x 4096 x 4096 = 68719476736 voxels, "
+                   "more than the limit of 67108864 voxels per edit"),
+            std::string::npos) << e;
+  EXPECT_TRUE(same(s0, snapshot(bm)));
+  // One slab past the limit, and boxes whose sides alone pass it.
+  e = refusal([&] { bm.fillBox({glm::ivec3(0), glm::ivec3(1024, 1024, 65)}, 1); });
+  EXPECT_NE(e.find("1024 x 1024 x 65 = 68157440 voxels"), std::string::npos) << e;
+  e = refusal([&] { bm.fillBox({glm::ivec3(-(1 << 30)), glm::ivec3(1 << 30)}, 1); });
+  EXPECT_NE(e.find("2147483648 x 2147483648 x 2147483648 voxels, more than the limit"), std::string::npos) << e;
+  EXPECT_TRUE(same(s0, snapshot(bm)));
+  EXPECT_EQ(bm.solidCount(), solid0);
+  bm.checkConsistency();
+
+  // A clear is bounded by the part of its box inside the region table: small tables clear anything.
+  bm.clearBox({glm::ivec3(-(1 << 30)), glm::ivec3(1 << 30)});
+  bm.checkConsistency();
+  EXPECT_EQ(bm.solidCount(), 0u);
+  // A table of 41 x 1 x 1 regions holds 41 * 128^3 voxels, more than one edit may touch.
+  std::vector<vs::SolidVoxel> far{{glm::ivec3(0), 1}, {glm::ivec3(128 * 40, 0, 0), 1}};
+  vs::Brickmap wide = vs::Brickmap::build(far);
+  const Snapshot w0 = snapshot(wide);
+  e = refusal([&] { wide.clearBox({glm::ivec3(-(1 << 30)), glm::ivec3(1 << 30)}); });
+  EXPECT_NE(e.find("covers 5248 x 128 x 128 = 85983232 voxels of the region table, more than the limit of 67108864"),
+            std::string::npos) << e;
+  EXPECT_TRUE(same(w0, snapshot(wide)));
+  EXPECT_EQ(wide.solidCount(), 2u);
+  wide.clearBox({glm::ivec3(0), glm::ivec3(128 * 20, 128, 128)});
+  EXPECT_EQ(wide.solidCount(), 1u);
 }
 
 }  // namespace

@@ -503,3 +503,169 @@ TEST(VoxDemo, CratesAssetHasItsSceneGraph) {
 
 }  // namespace
 }  // namespace vs
+
+// --- PACK animations (files of MagicaVoxel 0.98 and older) ----------------------------------------------
+
+namespace vs {
+namespace {
+
+std::size_t occurrences(const std::string& s, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t at = s.find(what); at != std::string::npos; at = s.find(what, at + 1)) ++n;
+  return n;
+}
+
+std::string joined(const std::vector<std::string>& notes) {
+  std::string s;
+  for (const std::string& n : notes) s += n + "\n";
+  return s;
+}
+
+// Three poses of different sizes, so that the model shown can be told by its voxel count.
+VoxWriteFile packFile() {
+  VoxWriteFile w;
+  w.version = 150;
+  w.pack = 3;
+  w.models = {cube(1, 2), cube(2, 3), cube(3, 4)};
+  return w;
+}
+
+std::string refusal(const std::vector<std::uint8_t>& bytes, const std::string& name, const VoxReadOptions& options) {
+  try {
+    readVox(bytes, name, options);
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::BadInput);
+    return e.what();
+  }
+  ADD_FAILURE() << "accepted";
+  return "";
+}
+
+TEST(VoxPack, FramesAreShownOneAtATime) {
+  const std::vector<std::uint8_t> bytes = encodeVox(packFile());
+  VoxFile f = readVox(bytes, "rex.vox");
+  EXPECT_FALSE(f.hasSceneGraph);
+  EXPECT_TRUE(f.packFrames);
+  EXPECT_EQ(f.packModels, 3);
+  ASSERT_EQ(f.models.size(), 3u);
+  ASSERT_EQ(f.instances.size(), 1u);  // not the three poses on top of each other
+  EXPECT_EQ(f.instances[0].model, 0);
+  EXPECT_TRUE(test::contains(joined(f.notes), "PACK animation: the 3 models are frames 0..2, frame 0 shown")) << joined(f.notes);
+  EXPECT_FALSE(test::contains(joined(f.notes), "chunks skipped")) << joined(f.notes);
+
+  VoxFile third = readVox(bytes, "rex.vox", {.frame = 2});
+  ASSERT_EQ(third.instances.size(), 1u);
+  EXPECT_EQ(third.instances[0].model, 2);
+  EXPECT_TRUE(test::contains(joined(third.notes), "frame 2 shown")) << joined(third.notes);
+  VoxAsset asset = buildVoxAsset(third);
+  ASSERT_EQ(asset.placements.size(), 1u);
+  ASSERT_EQ(asset.objects.size(), 1u);
+  EXPECT_EQ(asset.objects[0].brickmap.solidCount(), 27u);
+  EXPECT_TRUE(test::contains(joined(asset.notes), "frame 2 shown"));
+
+  // From disk through loadVox and inspectVox, as scene files and `info` use them.
+  const fs::path dir = test::scratchDir("vox_pack");
+  writeVoxFile(dir / "rex.vox", packFile());
+  VoxAsset second = loadVox((dir / "rex.vox").string(), {.frame = 1});
+  ASSERT_EQ(second.objects.size(), 1u);
+  EXPECT_EQ(second.objects[0].brickmap.solidCount(), 8u);
+  VoxInfo info = inspectVox((dir / "rex.vox").string());
+  EXPECT_TRUE(info.packFrames);
+  EXPECT_EQ(info.frame, 0);
+  ASSERT_EQ(info.instances.size(), 1u);
+  EXPECT_EQ(info.models[0].instanceCount, 1);
+  EXPECT_EQ(info.models[1].instanceCount, 0);
+
+  // A frame the animation does not have is refused, naming the file once, the frame and the count.
+  std::string e = refusal(bytes, "rex.vox", {.frame = 3});
+  EXPECT_EQ(e.rfind("rex.vox: ", 0), 0u) << e;
+  EXPECT_EQ(occurrences(e, "rex.vox"), 1u) << e;
+  EXPECT_TRUE(test::contains(e, "frame 3 is beyond the 3 frames of its PACK animation (0..2)")) << e;
+  e = refusal(bytes, "rex.vox", {.frame = -1});
+  EXPECT_TRUE(test::contains(e, "rex.vox: frame -1 is outside 0..1000000")) << e;
+}
+
+TEST(VoxPack, ASceneGraphWinsOverPack) {
+  VoxWriteFile w = twoModelFile();
+  w.pack = 2;
+  VoxFile f = readVox(encodeVox(w), "graph.vox");
+  EXPECT_TRUE(f.hasSceneGraph);
+  EXPECT_FALSE(f.packFrames);
+  EXPECT_EQ(f.packModels, 2);
+  EXPECT_EQ(f.instances.size(), 3u);  // the graph's three shapes, model 0 twice
+  EXPECT_TRUE(test::contains(joined(f.notes), "chunks skipped: PACK x1")) << joined(f.notes);
+  EXPECT_FALSE(test::contains(joined(f.notes), "PACK animation")) << joined(f.notes);
+  // Frames are the graph's keyframes, not the models: a frame past the model count is fine.
+  EXPECT_EQ(readVox(encodeVox(w), "graph.vox", {.frame = 7}).instances.size(), 3u);
+  // Without PACK and without a graph every model is placed, as before.
+  VoxWriteFile plain = packFile();
+  plain.pack.reset();
+  VoxFile p = readVox(encodeVox(plain), "plain.vox");
+  EXPECT_FALSE(p.packFrames);
+  EXPECT_EQ(p.instances.size(), 3u);
+}
+
+TEST(VoxPack, BadPackChunksAreRefused) {
+  VoxWriteFile w = packFile();
+  w.pack = 0;
+  expectRefused(encodeVox(w), "PACK chunk at byte 20: model count 0 is not positive", "count 0");
+  w.pack = 3;
+  w.models.clear();
+  expectRefused(encodeVox(w), "PACK chunk at byte 20: declares 3 models, the file has none", "no models");
+  // A second PACK chunk: the first one (16 bytes at byte 20) twice.
+  std::vector<std::uint8_t> b = encodeVox(packFile());
+  b.insert(b.begin() + 36, b.begin() + 20, b.begin() + 36);
+  std::uint32_t children = std::uint32_t(b.size() - 20);
+  std::memcpy(&b[16], &children, 4);
+  expectRefused(b, "PACK chunk at byte 36: a second PACK chunk", "two");
+  // A count that disagrees with the models: the models are the frames, and the note says so.
+  w = packFile();
+  w.pack = 5;
+  VoxFile f = readVox(encodeVox(w), "five.vox", {.frame = 2});
+  EXPECT_EQ(f.instances.at(0).model, 2);
+  EXPECT_TRUE(test::contains(joined(f.notes), "the PACK chunk declares 5 models")) << joined(f.notes);
+}
+
+// Chunk by chunk: MAIN's children are the given chunks.
+std::vector<std::uint8_t> rawVox(const std::vector<std::pair<std::string, std::vector<std::int32_t>>>& chunks) {
+  std::vector<std::uint8_t> b = {'V', 'O', 'X', ' ', 150, 0, 0, 0, 'M', 'A', 'I', 'N', 0, 0, 0, 0, 0, 0, 0, 0};
+  auto put = [&b](std::int32_t v) {
+    for (int i = 0; i < 4; ++i) b.push_back(std::uint8_t(std::uint32_t(v) >> (8 * i)));
+  };
+  for (const auto& [id, words] : chunks) {
+    b.insert(b.end(), id.begin(), id.end());
+    put(std::int32_t(4 * words.size()));
+    put(0);
+    for (std::int32_t w : words) put(w);
+  }
+  std::uint32_t children = std::uint32_t(b.size() - 20);
+  std::memcpy(&b[16], &children, 4);
+  return b;
+}
+
+TEST(VoxBadInput, EachMessageNamesTheFileOnce) {
+  struct Case {
+    std::vector<std::uint8_t> bytes;
+    const char* fragment;
+  } cases[] = {
+      {rawVox({{"SIZE", {1, 1, 1}}}), "bad.vox: SIZE chunk at byte 20: no XYZI chunk follows it"},
+      {rawVox({{"SIZE", {1, 1, 1}}, {"SIZE", {2, 2, 2}}}),
+       "bad.vox: SIZE chunk at byte 44: a second SIZE without an XYZI chunk after the first (SIZE chunk at byte 20)"},
+      {rawVox({{"XYZI", {0}}}), "bad.vox: XYZI chunk at byte 20: XYZI without a SIZE chunk"},
+  };
+  for (const Case& c : cases) {
+    std::string e = refusal(c.bytes, "bad.vox", {});
+    EXPECT_TRUE(test::contains(e, c.fragment)) << e;
+    EXPECT_EQ(occurrences(e, "bad.vox"), 1u) << e;
+  }
+  // buildVoxAsset's own refusal gives the voxel size it was handed.
+  try {
+    buildVoxAsset(readVox(encodeVox(packFile()), "rex.vox"), {.voxelSize = -0.5});
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_TRUE(test::contains(e.what(), "rex.vox: voxel size must be a finite number greater than 0, not -0.5")) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace vs

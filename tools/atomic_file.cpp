@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <fcntl.h>
+#include <pthread.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -46,9 +47,26 @@ void removeRegisteredTemporaries() {
     if (s.state.load(std::memory_order_acquire) == 2) ::unlink(s.path);
 }
 
+// The process that installed the handlers. A child forked from it (the .vdb check) inherits them but not the
+// temporaries: its signal must not remove files its parent is still writing.
+std::atomic<pid_t> g_owner{0};
+
+// Dies by `sig` itself, so that a parent (a shell, make, a supervisor) sees the signal and not an exit status:
+// a shell that sees its foreground job die by SIGINT stops its own script too.
 [[noreturn]] void exitForSignal(int sig) {
-  removeRegisteredTemporaries();
-  ::_exit(128 + sig);
+  if (::getpid() == g_owner.load()) removeRegisteredTemporaries();
+  struct sigaction dfl;
+  std::memset(&dfl, 0, sizeof dfl);
+  dfl.sa_handler = SIG_DFL;
+  sigemptyset(&dfl.sa_mask);
+  ::sigaction(sig, &dfl, nullptr);
+  ::raise(sig);
+  // Inside the handler the signal is blocked: unblocking delivers it, with the default action.
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, sig);
+  ::pthread_sigmask(SIG_UNBLOCK, &set, nullptr);
+  ::_exit(128 + sig);  // reached only if the default action did not end the process
 }
 
 extern "C" void onTerminatingSignal(int sig) {
@@ -277,13 +295,33 @@ void writeAtomically(std::span<const fs::path> outputs,
 
 RenameFunction exchangeCommitRenameForTesting(RenameFunction rename) { return g_commitRename.exchange(rename); }
 
+std::vector<int> cleanupSignals() {
+  // Every signal whose default action ends the process and that a handler can catch, except the faults a
+  // bug raises (SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGTRAP, SIGSYS): those belong to debuggers and sanitizers, and
+  // the next run removes what a crashed writer left (removeStaleTemporaries).
+  std::vector<int> signals = {SIGHUP,  SIGINT,  SIGQUIT, SIGABRT,   SIGTERM, SIGPIPE, SIGALRM, SIGUSR1,
+                              SIGUSR2, SIGXCPU, SIGXFSZ, SIGVTALRM, SIGPROF, SIGIO,   SIGPWR};
+#ifdef SIGSTKFLT
+  signals.push_back(SIGSTKFLT);
+#endif
+  for (int sig = SIGRTMIN; sig <= SIGRTMAX; ++sig) signals.push_back(sig);
+  return signals;
+}
+
 void installSignalCleanup() {
+  g_owner.store(::getpid());
   struct sigaction sa;
   std::memset(&sa, 0, sizeof sa);
   sa.sa_handler = onTerminatingSignal;
   sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
+  for (int sig : cleanupSignals()) {
+    struct sigaction old;
+    if (::sigaction(sig, nullptr, &old) != 0) continue;
+    // A signal ignored at start-up stays ignored: `voxshadow ... &` in a script has SIGINT ignored, and must
+    // not die on a Ctrl-C meant for the foreground job. A handler someone else installed stays too.
+    if (old.sa_handler != SIG_DFL || (old.sa_flags & SA_SIGINFO)) continue;
+    ::sigaction(sig, &sa, nullptr);
+  }
 }
 
 }  // namespace vs

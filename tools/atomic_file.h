@@ -8,6 +8,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 namespace vs {
 
@@ -46,7 +47,7 @@ void refuseOutputsOverInputs(std::span<const std::filesystem::path> outputs,
 // back (or are removed when they did not exist before). Preconditions: outputs are distinct paths. On any
 // failure every temporary and backup is removed, the previous outputs are as they were, and the exception
 // propagates (file-system failures as vs::Error(Runtime) naming the file).
-// A SIGINT or SIGTERM while temporaries exist removes them (installSignalCleanup); one during the commit
+// A terminating signal while temporaries exist removes them (installSignalCleanup); one during the commit
 // is held until the commit is complete.
 void writeAtomically(std::span<const std::filesystem::path> outputs,
                      const std::function<void(std::size_t index, const std::filesystem::path& tmp)>& write);
@@ -56,8 +57,16 @@ void writeAtomically(std::span<const std::filesystem::path> outputs,
 using RenameFunction = int (*)(const char* from, const char* to);
 RenameFunction exchangeCommitRenameForTesting(RenameFunction rename);
 
-// Installs SIGINT and SIGTERM handlers that remove every temporary writeAtomically (or checkOutputDirectory's
-// probe) has open and end the process with status 128 + signal (130, 143). Call once, early in main().
+// The signals installSignalCleanup handles: every catchable signal whose default action ends the process
+// (SIGHUP, SIGINT, SIGQUIT, SIGABRT, SIGTERM, SIGPIPE, SIGALRM, SIGUSR1, SIGUSR2, SIGXCPU, SIGXFSZ, SIGVTALRM,
+// SIGPROF, SIGIO, SIGPWR, SIGSTKFLT, the real-time signals) but the faults of a bug (SIGSEGV, SIGBUS, SIGFPE,
+// SIGILL, SIGTRAP, SIGSYS).
+std::vector<int> cleanupSignals();
+
+// Installs handlers for cleanupSignals() that remove every temporary writeAtomically (or
+// checkOutputDirectory's probe) has open, then end the process by the same signal with its default action
+// (a shell reports 128 + signal: 130 for SIGINT, 143 for SIGTERM). A signal that is ignored, or already
+// handled, when this runs is left as it is. Call once, early in main().
 void installSignalCleanup();
 
 }  // namespace vs

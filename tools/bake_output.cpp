@@ -14,6 +14,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include "tools/atomic_file.h"
+#include "tools/file_kind.h"
 #include "voxel/error.h"
 
 namespace vs {
@@ -212,7 +213,7 @@ void writeSheetFile(const fs::path& finalPath, const fs::path& tmp, const OIIO::
 }
 
 void checkExtension(const fs::path& out, const char* ext, const char* what) {
-  if (out.extension() != ext)
+  if (!hasExtension(out, ext))
     throwBadInput(out.string() + ": the " + what + " must have the extension " + ext);
 }
 

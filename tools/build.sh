@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
 # Configures and builds voxshadow (Release) into ./build. Used by run-demo.sh and run-tests.sh.
+# Usage: build.sh [TARGET...]: only those targets and what they depend on (run-demo.sh builds `voxshadow`);
+# without arguments every target, tests included (run-tests.sh).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${VOXSHADOW_BUILD_DIR:-$root/build}"
@@ -12,4 +14,6 @@ if command -v ccache >/dev/null; then
   launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 fi
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release "${launcher[@]}" >/dev/null
-cmake --build "$build" -j "$jobs"
+target_args=()
+if [ $# -gt 0 ]; then target_args=(--target "$@"); fi
+cmake --build "$build" -j "$jobs" "${target_args[@]}"

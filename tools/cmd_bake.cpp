@@ -9,6 +9,7 @@
 #include "tools/resources.h"
 #include "tools/bake_output.h"
 #include "tools/commands.h"
+#include "tools/file_kind.h"
 #include "tools/progress.h"
 #include "voxel/error.h"
 
@@ -64,12 +65,6 @@ std::uint64_t layerBytes(const LightView& v) {
   return std::uint64_t(v.trace.info.x) * std::uint64_t(v.trace.info.y) * sizeof(float);
 }
 
-std::string gib(std::uint64_t bytes) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.2f GiB", double(bytes) / double(1ull << 30));
-  return buf;
-}
-
 std::string lightPath(const Scene& scene, const LightView& v) {
   return scene.desc().file.string() + ": lights[" + std::to_string(v.lightIndex) + "].shadow.resolution";
 }
@@ -89,9 +84,9 @@ void checkDeviceFits(const Scene& scene, const std::vector<LightView>& views, co
                     std::to_string(info.maxImageDimension2D) + ") of " + info.name + " (or use --backend cpu)");
     if (bytes > info.maxMemoryAllocationSize || 2 * bytes > info.deviceLocalBytes)
       throwBadInput(lightPath(scene, v) + ": one " + std::to_string(v.trace.info.x) + "x" +
-                    std::to_string(v.trace.info.y) + " layer needs " + gib(bytes) + " on the device and as much to read it back; " +
-                    info.name + " has " + gib(info.deviceLocalBytes) + " (largest allocation " +
-                    gib(info.maxMemoryAllocationSize) + "); lower the resolution or use --backend cpu");
+                    std::to_string(v.trace.info.y) + " layer needs " + formatBytes(bytes) + " on the device and as much to read it back; " +
+                    info.name + " has " + formatBytes(info.deviceLocalBytes) + " (largest allocation " +
+                    formatBytes(info.maxMemoryAllocationSize) + "); lower the resolution or use --backend cpu");
   }
 }
 
@@ -143,31 +138,34 @@ std::vector<ShadowLayer> traceInBatches(const Scene& scene, const std::vector<Li
 
 // What the bake holds in host memory at its peak: every layer (they are written together), one more layer's
 // worth for the EXR writer, the preview sheet, and on a CPU Vulkan device (lavapipe, whose device memory
-// is host memory) a batch's image and readback.
+// is host memory) a batch's image and readback and the driver's own working memory.
 std::uint64_t hostBytesNeeded(const std::vector<LightView>& views, bool preview, const VulkanDeviceInfo* device) {
   std::uint64_t total = 0, largest = 0, batch = 0;
   for (const LightView& v : views) {
     total += layerBytes(v);
     largest = std::max(largest, layerBytes(v));
-    if (device) batch = std::max(batch, layerBytes(v) * viewsPerBatch(*device, v));
+    if (!device) continue;
+    // A batch holds views of one size, as many as there are up to viewsPerBatch.
+    const std::size_t sameSize = std::size_t(std::count_if(views.begin(), views.end(), [&](const LightView& w) {
+      return w.trace.info.x == v.trace.info.x && w.trace.info.y == v.trace.info.y;
+    }));
+    batch = std::max(batch, layerBytes(v) * std::min(sameSize, viewsPerBatch(*device, v)));
   }
   total += largest;
   if (preview) total += 4096ull * 4096ull * 3ull;
-  if (device && device->type == VulkanDeviceType::Cpu) total += 2 * batch;
+  if (device && device->type == VulkanDeviceType::Cpu) total += 2 * batch + kCpuVulkanDeviceWorkingBytes;
   return total;
 }
 
 void checkHostMemory(const Scene& scene, const std::vector<LightView>& views, const BakeOptions& options,
                      const VulkanDeviceInfo* device) {
   const std::uint64_t need = hostBytesNeeded(views, options.preview.has_value(), device);
-  const std::uint64_t budget = options.memoryBudget ? *options.memoryBudget : availableMemoryBytes();
-  if (need <= budget) return;
   std::uint64_t texels = 0;
   for (const LightView& v : views) texels += layerBytes(v) / sizeof(float);
-  throwBadInput(scene.desc().file.string() + ": lights: " + std::to_string(views.size()) + " shadow layers (" +
-                std::to_string(texels) + " texels) need about " + gib(need) + " of memory, more than the budget of " +
-                gib(budget) + (options.memoryBudget ? " (--memory-budget)" : " (the memory available now; --memory-budget sets another)") +
-                "; lower the lights' shadow.resolution or shadow fewer lights");
+  checkMemoryNeed(need, memoryBudget(options.memoryBudget, tracingCommandThreads(options.threads)),
+                  scene.desc().file.string() + ": lights: " + std::to_string(views.size()) + " shadow layers (" +
+                      std::to_string(texels) + " texels) need",
+                  "lower the lights' shadow.resolution or shadow fewer lights");
 }
 
 BakedView toBaked(const LightView& v, ShadowLayer&& layer) {
@@ -224,9 +222,9 @@ std::unique_ptr<Tracer> openVulkanBackend(const std::string& device) {
 
 void runBake(const BakeOptions& options) {
   // Every check of the user's paths comes before the scene is loaded or traced.
-  if (options.output.extension() != ".exr")
+  if (!hasExtension(options.output, ".exr"))
     throwBadInput(options.output.string() + ": the output must be an .exr file");
-  if (options.preview && options.preview->extension() != ".png")
+  if (options.preview && !hasExtension(*options.preview, ".png"))
     throwBadInput(options.preview->string() + ": the preview must be a .png file");
   if (options.backend != "cpu" && options.backend != "vulkan")
     throwBadInput("unknown backend '" + options.backend + "' (cpu or vulkan)");
@@ -236,7 +234,9 @@ void runBake(const BakeOptions& options) {
     throwBadInput("--threads: must be between 0 and " + std::to_string(kMaxThreads) + ", not " + std::to_string(options.threads));
 
   auto t0 = Clock::now();
+  checkInputBytes(options.scene, InputKind::Scene);
   SceneDesc desc = parseSceneFile(options.scene);
+  checkSceneAssetBytes(desc);
   std::vector<std::filesystem::path> outputs = {options.output, sidecarPath(options.output)};
   if (options.preview) outputs.push_back(*options.preview);
   checkCommandOutputs(desc, outputs, kMaxShadowFileNameBytes);
@@ -254,6 +254,9 @@ void runBake(const BakeOptions& options) {
     std::unique_ptr<Tracer> tracer = makeCpuTracer({CpuTracePath::Interleaved, options.threads});
     layers = traceInBands(scene, views, *tracer);
   } else {
+    // The layers alone first: a bake that cannot fit them is refused before the Vulkan driver maps its own share
+    // of the address space (under a tight ulimit -v, lavapipe can crash creating its pipeline).
+    checkHostMemory(scene, views, options, nullptr);
     std::unique_ptr<Tracer> tracer = openVulkanBackend(options.device);
     const VulkanDeviceInfo& device = tracer->vulkan()->device();
     checkDeviceFits(scene, views, device);

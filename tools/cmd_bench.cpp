@@ -217,10 +217,17 @@ void benchRayKinds(RayBench& b, Tracer& tracer, int reps, const char* label) {
               (std::string(label) + " visibility closest").c_str(), c, double(b.visibility.size()) / c / 1e6);
 }
 
+// Each option out of its range is refused by name, before any work.
+void checkBenchRange(const char* option, int value, int lo, int hi) {
+  if (value < lo || value > hi)
+    throwBadInput(std::string("bench: ") + option + ": must be between " + std::to_string(lo) + " and " +
+                  std::to_string(hi) + ", not " + std::to_string(value));
+}
+
 void runBench(const BenchOptions& opt) {
-  if (opt.threads < 1 || opt.resolution < 16 || opt.resolution > 16384 || opt.reps < 1) {
-    throwBadInput("bench: --threads >= 1, --resolution in 16..16384 and --reps >= 1 required");
-  }
+  checkBenchRange("--threads", opt.threads, 1, kMaxThreads);
+  checkBenchRange("--resolution", opt.resolution, 16, 16384);
+  checkBenchRange("--reps", opt.reps, 1, 1000);
   std::printf("city512: generating voxels...\n");
   auto voxels = city512Voxels();
   auto start = std::chrono::steady_clock::now();
@@ -321,7 +328,8 @@ void runBench(const BenchOptions& opt) {
 // torch at 6 x 512^2) with shadow maps and with ray-traced shadows, on the CPU backend and on Vulkan: the
 // median time of each stage over `reps` frames after a warm-up frame, all in this one run.
 void runFrameBench(const BenchOptions& opt) {
-  if (opt.reps < 1 || opt.reps > 1000) throwBadInput("--reps: must be between 1 and 1000, not " + std::to_string(opt.reps));
+  checkBenchRange("--threads", opt.threads, 1, kMaxThreads);
+  checkBenchRange("--reps", opt.reps, 1, 1000);
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("voxshadow-bench-" + std::to_string(::getpid()));
   const std::vector<std::string> written = writeDemoWorld(dir);
   const Scene scene = Scene::load(std::filesystem::path(written.back()));

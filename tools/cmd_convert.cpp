@@ -1,4 +1,6 @@
 // voxshadow convert IN.vox OUT.vdb: one Int32 palette grid per model, readable by OpenVDB's own tools.
+#include <algorithm>
+#include <cctype>
 #include <cstdio>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -7,6 +9,7 @@
 
 #include "tools/atomic_file.h"
 #include "tools/commands.h"
+#include "tools/file_kind.h"
 #include "voxel/error.h"
 #include "voxel/vox_scene.h"
 
@@ -51,6 +54,7 @@ void runConvert(const fs::path& in, const fs::path& out, int frame) {
   const std::string inputWhat[] = {"file"};
   refuseOutputsOverInputs(outputs, inputs, inputWhat);
   checkOutputDirectory(out);
+  checkInputBytes(in, InputKind::Vox);
   VoxReadOptions read;
   read.frame = frame;
   VoxFile vox = readVoxFile(in.string(), read);
@@ -86,7 +90,9 @@ void runConvert(const fs::path& in, const fs::path& out, int frame) {
     std::string line = "  grid " + std::to_string(i) + " '" + gridName(i) + "': " +
                        std::to_string(model.size.x) + " x " + std::to_string(model.size.y) + " x " +
                        std::to_string(model.size.z) + ", " + std::to_string(grid->activeVoxelCount()) + " voxels, ";
-    if (count == 0) line += "not placed by the scene graph: transform of the model alone";
+    // Every frame of a PACK animation sits at the origin, so each grid gets the model's own transform.
+    if (vox.packFrames) line += "frame " + std::to_string(i) + " of the PACK animation" + (count ? " (the frame chosen)" : "");
+    else if (count == 0) line += "not placed by the scene graph: transform of the model alone";
     else if (count == 1) line += "transform of its instance";
     else line += "transform of the first of its " + std::to_string(count) + " instances";
     lines.push_back(line);
@@ -117,8 +123,19 @@ void registerConvert(CLI::App& app) {
   CLI::App* sub = app.add_subcommand("convert", "Convert a MagicaVoxel .vox file to a .vdb file (one Int32 palette grid per model)");
   sub->add_option("IN", options->in, "Input .vox file")->required();
   sub->add_option("OUT", options->out, "Output .vdb file")->required();
-  sub->add_option("--frame", options->frame, "Animation frame whose transforms the grids take")
-      ->check(CLI::NonNegativeNumber)
+  // Checked as text before CLI11 converts it, so that every bad value gets the same message (CLI11's own
+  // checks print the range of a double or only "Could not convert").
+  const std::string range = "must be a whole number from 0 to " + std::to_string(kVoxMaxFrame);
+  sub->add_option("--frame", options->frame,
+                  "Animation frame: the scene graph's transforms at it, or the PACK animation frame marked as chosen")
+      ->check(CLI::Validator(
+          [range](std::string& s) {
+            if (s.empty() || s.size() > 7 || !std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c); }) ||
+                std::stoi(s) > kVoxMaxFrame)
+              return range;
+            return std::string();
+          },
+          "0.." + std::to_string(kVoxMaxFrame)))
       ->capture_default_str();
   sub->callback([options] { runConvert(options->in, options->out, options->frame); });
 }

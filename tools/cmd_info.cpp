@@ -2,11 +2,13 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <new>
 
 #include <nlohmann/json.hpp>
 
 #include "lighting/scene.h"
 #include "tools/commands.h"
+#include "tools/file_kind.h"
 #include "voxel/error.h"
 #include "voxel/vdb_info.h"
 
@@ -100,7 +102,9 @@ void printVdb(const json& j) {
 }
 
 json sceneInfo(const fs::path& file) {
-  Scene scene = Scene::load(file);
+  SceneDesc parsed = parseSceneFile(file);
+  checkSceneAssetBytes(parsed);
+  Scene scene = Scene::load(std::move(parsed));
   const SceneDesc& desc = scene.desc();
   const SceneData& data = scene.data();
   json j = {{"file", file.string()}, {"kind", "scene"}};
@@ -204,8 +208,12 @@ void printScene(const json& j) {
 }
 
 json fileInfo(const fs::path& file) {
-  if (file.extension() == ".json") return sceneInfo(file);
-  if (file.extension() == ".vox") return voxFileInfo(file);
+  // The first bytes before anything else: a file that is not what its name says is refused for that, not
+  // for its size (a sparse 10 GB file of zeros named .vdb) or for what a reader makes of it.
+  const InputKind kind = inputKindOf(file);
+  checkInputBytes(file, kind);
+  if (kind == InputKind::Scene) return sceneInfo(file);
+  if (kind == InputKind::Vox) return voxFileInfo(file);
   return vdbInfo(file);
 }
 
@@ -238,13 +246,46 @@ void registerInfo(CLI::App& app) {
       return;
     }
     if (options->files.empty()) throwBadInput("info: FILE is required (or --devices)");
+    // Every file is reported: a bad one is an error line (and, with --json, an entry with its error), and the
+    // files after it are still described; the exit status says that one failed.
     json all = json::array();
+    std::size_t failed = 0;
+    bool badInput = false;
     for (const std::string& f : options->files) {
-      json j = fileInfo(f);
-      if (options->json) all.push_back(std::move(j));
-      else printFile(j);
+      std::string error;
+      if (options->files.size() == 1) {
+        // One file: its error is the command's error, exit status and all.
+        json j = fileInfo(f);
+        if (options->json) all.push_back(std::move(j));
+        else printFile(j);
+        continue;
+      }
+      try {
+        json j = fileInfo(f);
+        if (options->json) all.push_back(std::move(j));
+        else printFile(j);
+        continue;
+      } catch (const Error& e) {
+        error = e.what();
+        badInput = badInput || e.kind() == ErrorKind::BadInput;
+      } catch (const std::bad_alloc&) {
+        error = "out of memory";
+      } catch (const std::exception& e) {
+        error = e.what();
+      }
+      if (error.find(f) == std::string::npos) error = f + ": " + error;
+      ++failed;
+      std::fflush(stdout);
+      std::cout.flush();
+      std::fprintf(stderr, "voxshadow: %s\n", error.c_str());
+      if (options->json) all.push_back({{"file", f}, {"error", error}});
     }
     if (options->json) std::cout << all.dump(2) << "\n";
+    if (failed == 0) return;
+    const std::string summary = "info: " + std::to_string(failed) + " of " + std::to_string(options->files.size()) +
+                                " file" + (options->files.size() == 1 ? "" : "s") + " could not be described";
+    if (badInput) throwBadInput(summary);
+    throwRuntime(summary);
   });
 }
 

@@ -55,6 +55,9 @@ json voxFileInfo(const std::filesystem::path& file) {
           {"version", info.version},
           {"palette", info.hasPaletteChunk ? "RGBA chunk" : "MagicaVoxel default"},
           {"sceneGraph", info.hasSceneGraph},
+          {"pack", info.packModels < 0 ? json(nullptr) : json(info.packModels)},
+          {"animation", info.packFrames ? json{{"kind", "PACK frames"}, {"frames", info.models.size()}, {"frameShown", info.frame}}
+                                        : json(nullptr)},
           {"models", std::move(models)},
           {"instances", std::move(instances)},
           {"materials", std::move(materials)},
@@ -66,9 +69,14 @@ json voxFileInfo(const std::filesystem::path& file) {
 
 void printVoxFile(const json& j) {
   const json& models = j["models"];
-  std::printf("%s: MagicaVoxel version %d, %zu model%s, %zu instance%s, palette: %s\n",
+  std::string animation;
+  if (const json& a = j["animation"]; a.is_object())
+    animation = " (PACK animation frames 0.." + std::to_string(a["frames"].get<std::size_t>() - 1) + ", frame " +
+                std::to_string(a["frameShown"].get<int>()) + " shown)";
+  std::printf("%s: MagicaVoxel version %d, %zu model%s%s, %zu instance%s, palette: %s\n",
               j["file"].get<std::string>().c_str(), j["version"].get<int>(), models.size(), models.size() == 1 ? "" : "s",
-              j["instances"].size(), j["instances"].size() == 1 ? "" : "s", j["palette"].get<std::string>().c_str());
+              animation.c_str(), j["instances"].size(), j["instances"].size() == 1 ? "" : "s",
+              j["palette"].get<std::string>().c_str());
   for (const json& m : models) {
     const json& s = m["size"];
     const json& b = m["brickmap"];

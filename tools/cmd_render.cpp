@@ -1,13 +1,17 @@
 // voxshadow render: scene -> shadow layers + G-buffer -> deferred lighting -> PNG (sRGB) or EXR (linear HDR
 // with the G-buffer and shadow terms).
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 
 #include "compute/tracer.h"
+#include "lighting/camera.h"
+#include "lighting/light_views.h"
 #include "lighting/renderer.h"
 #include "lighting/scene.h"
 #include "tools/atomic_file.h"
 #include "tools/commands.h"
+#include "tools/file_kind.h"
 #include "tools/progress.h"
 #include "tools/render_output.h"
 #include "tools/resources.h"
@@ -35,11 +39,92 @@ void parseDebug(const std::string& text, RenderOptions& options) {
   }
 }
 
+// The sizes a frame's buffers are made from.
+struct FrameSizes {
+  int width = 0, height = 0;
+  std::uint64_t pixels = 0, lights = 0;
+  std::uint64_t layerBytes = 0;            // every shadow layer the frame traces
+  std::uint64_t maxW = 0, maxH = 0, views = 0;
+  std::uint64_t rays = 0;                  // visibility rays: one per pixel and light when any light needs them
+};
+
+FrameSizes frameSizes(const Scene& scene, const RenderOptions& render) {
+  const SceneDesc& desc = scene.desc();
+  const CameraFrame camera = cameraFrame(*desc.camera, render.width, render.height);
+  FrameSizes f;
+  f.width = camera.width;
+  f.height = camera.height;
+  f.pixels = std::uint64_t(camera.width) * std::uint64_t(camera.height);
+  f.lights = desc.lights.size();
+  const bool raytraced = render.shadows == ShadowSource::Raytraced;
+  if (!raytraced || render.debug == DebugView::Layer)
+    for (const LightView& v : buildLightViews(desc, scene.worldBounds(), &camera)) {
+      f.layerBytes += std::uint64_t(v.trace.info.x) * std::uint64_t(v.trace.info.y) * sizeof(float);
+      f.maxW = std::max<std::uint64_t>(f.maxW, std::uint64_t(v.trace.info.x));
+      f.maxH = std::max<std::uint64_t>(f.maxH, std::uint64_t(v.trace.info.y));
+      ++f.views;
+    }
+  const bool rays = std::any_of(desc.lights.begin(), desc.lights.end(), [&](const LightDesc& l) {
+    return l.shadow && (raytraced || l.shadow->contactShadow != 0.0f);
+  });
+  f.rays = rays ? f.pixels * f.lights : 0;
+  return f;
+}
+
+// What a render holds in host memory at its peak, from what FrameRenderer allocates in each stage: the shadow
+// layers, and the copy of their texels the lighting inputs keep; the G-buffer trace (primary rays 48 B, hits
+// 32 B and G-buffer texels 64 B a pixel); the visibility rays (48 B a ray and a 4-byte answer); the lit image
+// (16 B a pixel) and shadow terms (4 B a pixel and light); the file's pixels; and on Vulkan the host-visible
+// buffers the tracer and the lighting pass keep until the end (on a CPU device such as lavapipe, whose device
+// memory is host memory, the shadow image and the driver's own working memory too).
+std::uint64_t renderBytesNeeded(const FrameSizes& f, bool exr, const VulkanDeviceInfo* device) {
+  const std::uint64_t layers = f.layerBytes, pixels = f.pixels;
+  const std::uint64_t perLight = pixels * f.lights * sizeof(float);
+  const std::uint64_t gbuffer = pixels * 64;
+  const std::uint64_t file = exr ? pixels * (15 + f.lights) * sizeof(float) : pixels * 3;
+  // The Vulkan buffers, as each stage adds them.
+  std::uint64_t vTrace = 0, vPrimary = 0, vVisibility = 0, vShade = 0;
+  if (device) {
+    const bool cpuDevice = device->type == VulkanDeviceType::Cpu;
+    vTrace = layers + (cpuDevice ? f.maxW * f.maxH * f.views * sizeof(float) + kCpuVulkanDeviceWorkingBytes : 0);
+    vPrimary = pixels * (48 + 32);
+    vVisibility = (f.rays - std::min(f.rays, pixels)) * 48 + f.rays * 4;  // the ray buffer grows to hold them
+    vShade = gbuffer + layers + 2 * perLight + pixels * 16;
+  }
+  const std::uint64_t stages[] = {
+      layers + vTrace,
+      layers + pixels * (48 + 32 + 64) + vTrace + vPrimary,
+      2 * layers + gbuffer + f.rays * (48 + 4) + vTrace + vPrimary + vVisibility,
+      2 * layers + gbuffer + 2 * perLight + pixels * 16 + vTrace + vPrimary + vVisibility + vShade,
+      layers + gbuffer + pixels * 16 + perLight + file + vTrace + vPrimary + vVisibility + vShade,
+  };
+  return *std::max_element(std::begin(stages), std::end(stages));
+}
+
+void checkRenderMemory(const Scene& scene, const RenderOptions& render, const RenderCommandOptions& options,
+                       const VulkanDeviceInfo* device) {
+  const FrameSizes f = frameSizes(scene, render);
+  const std::string frame = scene.desc().file.string() + ": a " + std::to_string(f.width) + "x" +
+                            std::to_string(f.height) + " frame";
+  if (device) {
+    // The lighting pass binds each of these as one storage buffer.
+    const std::uint64_t largest =
+        std::max({f.pixels * 64, f.layerBytes, f.pixels * f.lights * sizeof(float), f.pixels * 16});
+    if (largest > device->maxStorageBufferRange)
+      throwBadInput(frame + " needs a " + formatBytes(largest) + " lighting buffer, more than maxStorageBufferRange (" +
+                    formatBytes(device->maxStorageBufferRange) + ") of " + device->name +
+                    "; render a smaller image (--width, --height) or use --backend cpu");
+  }
+  checkMemoryNeed(renderBytesNeeded(f, hasExtension(options.output, ".exr"), device),
+                  memoryBudget(options.memoryBudget, tracingCommandThreads(options.threads)),
+                  frame + " (G-buffer, lit image, shadow layers and visibility rays) needs",
+                  "render a smaller image (--width, --height) or lower the lights' shadow.resolution");
+}
+
 }  // namespace
 
 void runRender(const RenderCommandOptions& options) {
-  const std::string ext = options.output.extension().string();
-  if (ext != ".png" && ext != ".exr") throwBadInput(options.output.string() + ": the output must be a .png or .exr file");
+  if (!hasExtension(options.output, ".png") && !hasExtension(options.output, ".exr")) throwBadInput(options.output.string() + ": the output must be a .png or .exr file");
   if (options.backend != "cpu" && options.backend != "vulkan")
     throwBadInput("unknown backend '" + options.backend + "' (cpu or vulkan)");
   if (options.shadows != "maps" && options.shadows != "raytraced")
@@ -58,7 +143,9 @@ void runRender(const RenderCommandOptions& options) {
   render.shadows = options.shadows == "raytraced" ? ShadowSource::Raytraced : ShadowSource::Maps;
   parseDebug(options.debug, render);
 
+  checkInputBytes(options.scene, InputKind::Scene);
   SceneDesc desc = parseSceneFile(options.scene);
+  checkSceneAssetBytes(desc);
   if (!desc.camera) throwBadInput(options.scene.string() + ": camera: missing; `render` draws the scene from its camera");
   const std::vector<std::filesystem::path> outputs = {options.output};
   checkCommandOutputs(desc, outputs);
@@ -66,11 +153,14 @@ void runRender(const RenderCommandOptions& options) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   Scene scene = Scene::load(std::move(desc));
+  // Before any trace, and before the Vulkan driver maps its own share of the address space.
+  checkRenderMemory(scene, render, options, nullptr);
   std::unique_ptr<Tracer> tracer;
   if (options.backend == "cpu") {
     tracer = makeCpuTracer({CpuTracePath::Interleaved, options.threads});
   } else {
     tracer = openVulkanBackend(options.device);
+    checkRenderMemory(scene, render, options, &tracer->vulkan()->device());
   }
   Progress progress("rendering (" + tracer->deviceName() + ")");
   progress.update(0, 3);
@@ -113,6 +203,11 @@ void registerRender(CLI::App& app) {
   sub->add_option("--height", options->height, "Image height (default: the camera's)");
   addThreadsOption(sub, options->threads, "CPU threads (0: all)", 0);
   sub->add_option("--device", options->device, "Vulkan device: an index or part of a name (default: best)");
+  sub->add_option_function<std::string>(
+         "--memory-budget",
+         [options](const std::string& text) { options->memoryBudget = parseByteSize(text, "--memory-budget"); },
+         "Most host memory the render may plan to use, e.g. 8G, 512M (default: the memory available now)")
+      ->type_name("SIZE");
   sub->add_flag("--stats", options->stats, "Print the time of each stage");
   sub->callback([options] { runRender(*options); });
 }

@@ -25,7 +25,7 @@ void registerDemo(CLI::App& app);  // voxshadow demo [--out DIR]
 void registerBake(CLI::App& app);  // voxshadow bake SCENE -o OUT.exr [--backend] [--device] [--preview] [--threads] [--stats]
 void registerBench(CLI::App& app); // voxshadow bench [--threads N] [--resolution R] [--reps K] [--vulkan]
 void registerConvert(CLI::App& app); // voxshadow convert IN.vox OUT.vdb [--frame F]
-void registerRender(CLI::App& app);  // voxshadow render SCENE -o OUT.png|OUT.exr [--backend] [--shadows] [--debug]
+void registerRender(CLI::App& app);  // voxshadow render SCENE -o OUT.png|OUT.exr [--backend] [--shadows] [--debug] [--memory-budget]
 
 struct BakeOptions {
   std::filesystem::path scene;
@@ -33,7 +33,7 @@ struct BakeOptions {
   std::optional<std::filesystem::path> preview; // must end in .png
   std::string backend = "vulkan";               // "vulkan" | "cpu" (DESIGN.md §9)
   int threads = 0;                              // CPU backend: 0 = every hardware thread, at most kMaxThreads
-  std::optional<std::uint64_t> memoryBudget;    // bytes; unset: availableMemoryBytes()
+  std::optional<std::uint64_t> memoryBudget;    // bytes; unset: the memory available now (memoryBudget())
   std::string device;                           // Vulkan backend: index (digits) or name part; empty = best
   bool stats = false;
 };
@@ -51,6 +51,7 @@ struct RenderCommandOptions {
   int width = 0, height = 0;     // 0: the camera's
   int threads = 0;
   std::string device;
+  std::optional<std::uint64_t> memoryBudget;  // bytes; unset: the memory available now (memoryBudget())
   bool stats = false;
 };
 

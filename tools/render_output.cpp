@@ -6,6 +6,7 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include "tools/file_kind.h"
 #include "voxel/error.h"
 
 namespace vs {
@@ -28,7 +29,7 @@ std::vector<std::string> renderExrChannels(const RenderedFrame& frame) {
 void writeRenderedFrame(const std::filesystem::path& out, const std::filesystem::path& tmp, const RenderedFrame& frame) {
   auto fail = [&](const std::string& why) { throwRuntime(out.string() + ": " + why); };
   const std::size_t pixels = std::size_t(frame.width) * std::size_t(frame.height);
-  const bool exr = out.extension() == ".exr";
+  const bool exr = hasExtension(out, ".exr");
   std::unique_ptr<OIIO::ImageOutput> writer = OIIO::ImageOutput::create(exr ? "openexr" : "png");
   if (!writer) fail("no image writer: " + OIIO::geterror());
   if (!exr) {

@@ -3,9 +3,13 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <sstream>
+#include <thread>
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include "voxel/error.h"
@@ -84,6 +88,102 @@ std::uint64_t availableMemoryBytes() {
     available = std::min(available, limit > used ? limit - used : 0);
   }
   return available;
+}
+
+std::string formatBytes(std::uint64_t bytes) {
+  static const char* const kUnits[] = {"KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
+  if (bytes < 1024) return std::to_string(bytes) + " B";
+  double value = double(bytes) / 1024.0;
+  std::size_t unit = 0;
+  // Rounded to two decimals, 1023.999 MiB would print as "1024.00 MiB": move up before it does.
+  while (value >= 1023.995 && unit + 1 < std::size(kUnits)) {
+    value /= 1024.0;
+    ++unit;
+  }
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f %s", value, kUnits[unit]);
+  return buf;
+}
+
+namespace {
+
+// A field of /proc/self/status in bytes ("VmSize:  123 kB"), or a count ("Threads:  7"); 0 when absent.
+std::uint64_t processStatus(const std::string& field) {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.compare(0, field.size() + 1, field + ":") != 0) continue;
+    std::istringstream in(line.substr(field.size() + 1));
+    std::uint64_t value = 0;
+    std::string unit;
+    in >> value >> unit;
+    return unit == "kB" ? value * 1024 : value;
+  }
+  return 0;
+}
+
+std::optional<std::uint64_t> softLimit(int resource) {
+  struct rlimit limit {};
+  if (::getrlimit(resource, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return std::nullopt;
+  return std::uint64_t(limit.rlim_cur);
+}
+
+// glibc gives each thread that allocates its own malloc arena, up to 8 per core, and reserves 64 MiB of
+// address space for each (HEAP_MAX_SIZE): under ulimit -v that reservation takes room from the data.
+constexpr std::uint64_t kArenaBytes = 64ull << 20;
+
+// A new thread's stack: glibc's default is the soft stack limit (8 MiB unless changed), TBB's 4 MiB; take the
+// larger, as most of the pools use glibc's default.
+std::uint64_t threadStackBytes() {
+  const std::optional<std::uint64_t> stack = softLimit(RLIMIT_STACK);
+  return std::clamp<std::uint64_t>(stack.value_or(8ull << 20), 4ull << 20, 64ull << 20);
+}
+
+}  // namespace
+
+unsigned tracingCommandThreads(int threadsOption) {
+  const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());
+  const unsigned tbb = threadsOption > 0 ? std::max(unsigned(threadsOption), hardware) : hardware;
+  return tbb + 2 * hardware + 1;
+}
+
+MemoryBudget memoryBudget(const std::optional<std::uint64_t>& requested, unsigned peakThreads) {
+  MemoryBudget budget;
+  if (requested) {
+    budget = {*requested, "--memory-budget"};
+  } else {
+    budget = {availableMemoryBytes(), "the memory available now; --memory-budget sets another"};
+  }
+  const std::uint64_t running = std::max<std::uint64_t>(1, processStatus("Threads"));
+  const std::uint64_t later = peakThreads > running ? peakThreads - running : 0;
+  const std::uint64_t stacks = later * threadStackBytes();
+  const unsigned maxArenas = 8 * std::max(1u, std::thread::hardware_concurrency());
+  const std::uint64_t arenas = std::min<std::uint64_t>(later, maxArenas) * kArenaBytes;
+  struct Limit {
+    int resource;
+    const char* name;
+    const char* field;  // what of this process the limit already holds
+    std::uint64_t threads;
+  };
+  for (const Limit& l : {Limit{RLIMIT_AS, "ulimit -v (RLIMIT_AS)", "VmSize", stacks + arenas},
+                         Limit{RLIMIT_DATA, "ulimit -d (RLIMIT_DATA)", "VmData", stacks}}) {
+    const std::optional<std::uint64_t> limit = softLimit(l.resource);
+    if (!limit) continue;
+    const std::uint64_t used = processStatus(l.field) + l.threads;
+    const std::uint64_t room = *limit > used ? *limit - used : 0;
+    if (room >= budget.bytes) continue;
+    budget.bytes = room;
+    budget.setBy = std::string("the room left under ") + l.name + " of " + formatBytes(*limit) + ", of which this process " +
+                   (l.resource == RLIMIT_AS ? "maps " : "holds ") + formatBytes(processStatus(l.field)) +
+                   " already and the threads it has yet to start need " + formatBytes(l.threads);
+  }
+  return budget;
+}
+
+void checkMemoryNeed(std::uint64_t need, const MemoryBudget& budget, const std::string& what, const std::string& advice) {
+  if (need <= budget.bytes) return;
+  throwBadInput(what + " about " + formatBytes(need) + " of memory, more than the budget of " +
+                formatBytes(budget.bytes) + " (" + budget.setBy + "); " + advice);
 }
 
 }  // namespace vs::cli

@@ -3,6 +3,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$root/tools/install-deps.sh"
-bash "$root/tools/build.sh"
+# The CLI and what it links, not the tests: the demo runs nothing else.
+bash "$root/tools/build.sh" voxshadow
 build="${VOXSHADOW_BUILD_DIR:-$root/build}"
 "$build/tools/voxshadow" demo --out "${1:-$root/voxshadow-demo}"

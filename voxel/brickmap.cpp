@@ -29,8 +29,7 @@ using gpu::Brick;
 using gpu::Region;
 using gpu::Sector;
 
-// Coordinates beyond this magnitude are refused, so that box ends (v + 1) and region arithmetic never overflow.
-constexpr int kCoordLimit = 1 << 30;
+constexpr int kCoordLimit = Brickmap::kMaxCoordinate;
 
 std::uint64_t toU64(glm::uvec2 m) { return (std::uint64_t(m.y) << 32) | m.x; }
 glm::uvec2 toUvec2(std::uint64_t m) { return glm::uvec2(std::uint32_t(m), std::uint32_t(m >> 32)); }
@@ -67,6 +66,32 @@ void checkCoord(glm::ivec3 v, const char* what) {
                     " is outside the supported range +-" + std::to_string(kCoordLimit));
     }
   }
+}
+
+// A single voxel's box ends at v + 1, so the voxel itself must stay below the limit.
+void checkVoxel(glm::ivec3 v) {
+  for (int a = 0; a < 3; ++a)
+    if (v[a] < -kCoordLimit || v[a] >= kCoordLimit)
+      throwBadInput("brickmap: voxel (" + std::to_string(v.x) + ", " + std::to_string(v.y) + ", " +
+                    std::to_string(v.z) + ") is outside the editable range " + std::to_string(-kCoordLimit) + ".." +
+                    std::to_string(kCoordLimit - 1) + " on axis " + "xyz"[a]);
+}
+
+// An edit's time follows its box (a clear's: the part inside the region table), so its volume is bounded.
+void checkEditVolume(const VoxelBox& box, bool fill, const VoxelBox& asGiven) {
+  std::uint64_t side[3];
+  for (int a = 0; a < 3; ++a) side[a] = std::uint64_t(std::int64_t(box.max[a]) - std::int64_t(box.min[a]));
+  // Each side is at most 2^31, so the product of two fits; the third only has to show it is over the limit.
+  const std::uint64_t area = side[0] * side[1];
+  const bool over = side[2] > Brickmap::kMaxEditVoxels || area > Brickmap::kMaxEditVoxels ||
+                    area * side[2] > Brickmap::kMaxEditVoxels;
+  if (!over) return;
+  std::string size = std::to_string(side[0]) + " x " + std::to_string(side[1]) + " x " + std::to_string(side[2]);
+  if (area <= Brickmap::kMaxEditVoxels && side[2] <= Brickmap::kMaxEditVoxels) size += " = " + std::to_string(area * side[2]);
+  throwBadInput(std::string("brickmap: ") + (fill ? "fill" : "clear") + " box " + boxText(asGiven.min, asGiven.max) +
+                (fill ? " is " : " covers ") + size + " voxels" + (fill ? "" : " of the region table") +
+                ", more than the limit of " + std::to_string(Brickmap::kMaxEditVoxels) +
+                " voxels per edit (split it into smaller edits)");
 }
 
 // Saturates instead of overflowing: three extents of up to 2^28 regions each multiply past int64, and a
@@ -467,15 +492,17 @@ void Brickmap::growRegionTable(glm::ivec3 rmin, glm::ivec3 rmax, EditContext& ct
 
 EditResult Brickmap::editBricks(const VoxelBox& boxIn, bool adds, const VoxelOp& op) {
   EditResult result;
+  checkCoord(boxIn.min, "edit box");
+  checkCoord(boxIn.max, "edit box");
   if (boxIn.empty()) return result;
   VoxelBox box = boxIn;
-  checkCoord(box.min, "edit box");
-  checkCoord(box.max, "edit box");
   EditContext ctx{*this, {}};
   std::array<std::size_t, 6> sizesBefore{regionTable_.size(), regions_.size(), sectors_.size(),
                                          bricks_.size(), occupancy_.size(), payload_.size()};
   glm::ivec3 rmin = box.min >> VS_REGION_LOG2, rmax = (box.max - glm::ivec3(1)) >> VS_REGION_LOG2;
+  // Every refusal comes before the first change (growRegionTable checks its size before it builds).
   if (adds) {
+    checkEditVolume(box, adds, boxIn);
     bool inside = !regionTable_.empty() && slotOf(rmin) >= 0 && slotOf(rmax) >= 0;
     if (!inside) growRegionTable(rmin, rmax, ctx);
   } else {
@@ -483,6 +510,7 @@ EditResult Brickmap::editBricks(const VoxelBox& boxIn, bool adds, const VoxelOp&
     box.min = glm::max(box.min, regionOrigin_ * (1 << VS_REGION_LOG2));
     box.max = glm::min(box.max, (regionOrigin_ + regionDims_) * (1 << VS_REGION_LOG2));
     if (box.empty()) return result;
+    checkEditVolume(box, adds, boxIn);
     rmin = box.min >> VS_REGION_LOG2;
     rmax = (box.max - glm::ivec3(1)) >> VS_REGION_LOG2;
   }
@@ -693,6 +721,7 @@ void applyBox(const VoxelBox& box, bool solid, std::uint8_t material, std::uint6
 }  // namespace
 
 EditResult Brickmap::fillBox(const VoxelBox& box, std::uint8_t material) {
+  if (material == 0) return clearBox(box);
   return editBricks(box, true, [&](BrickContent& c, glm::ivec3 base) {
     applyBox(box, true, material, c.occ, c.mat, c.count, base);
   });
@@ -704,9 +733,15 @@ EditResult Brickmap::clearBox(const VoxelBox& box) {
   });
 }
 
-EditResult Brickmap::setVoxel(glm::ivec3 v, std::uint8_t material) { return fillBox(VoxelBox{v, v + glm::ivec3(1)}, material); }
+EditResult Brickmap::setVoxel(glm::ivec3 v, std::uint8_t material) {
+  checkVoxel(v);
+  return fillBox(VoxelBox{v, v + glm::ivec3(1)}, material);
+}
 
-EditResult Brickmap::clearVoxel(glm::ivec3 v) { return clearBox(VoxelBox{v, v + glm::ivec3(1)}); }
+EditResult Brickmap::clearVoxel(glm::ivec3 v) {
+  checkVoxel(v);
+  return clearBox(VoxelBox{v, v + glm::ivec3(1)});
+}
 
 EditResult Brickmap::compact() {
   std::vector<SolidVoxel> voxels;

@@ -59,6 +59,13 @@ class Brickmap {
  public:
   // Hard cap on the dense region table, so hostile or absurd bounds give an error, never a huge allocation.
   static constexpr std::size_t kMaxRegionSlots = std::size_t(1) << 24;
+  // Coordinates an edit may name: -kMaxCoordinate .. kMaxCoordinate - 1 per axis (box ends up to
+  // kMaxCoordinate), so that box ends and region arithmetic never overflow.
+  static constexpr int kMaxCoordinate = 1 << 30;
+  // Most voxels one edit's box may cover (a clear: the part of it inside the region table), the same as the
+  // solid voxels a .vdb grid may expand to by default (LoadOptions::maxSolidVoxels). An edit's time follows
+  // its box, so a larger box would run for minutes; split it into several edits.
+  static constexpr std::uint64_t kMaxEditVoxels = std::uint64_t(1) << 26;
 
   Brickmap() = default;
 
@@ -76,6 +83,11 @@ class Brickmap {
   void forEachSolid(const std::function<void(glm::ivec3, std::uint8_t)>& fn) const;
 
   // Edits. Each rebuilds only the bricks/sectors/regions it touches and reports what changed.
+  // Material 0 means empty, as everywhere else: setVoxel(v, 0) is clearVoxel(v) and fillBox(box, 0) is
+  // clearBox(box). An edit is refused with vs::Error(BadInput), changing nothing, when a voxel or box end
+  // lies outside +-kMaxCoordinate (the message names the coordinate), when its box covers more than
+  // kMaxEditVoxels voxels (the message gives the box's size and the limit), or when it would grow the region
+  // table past kMaxRegionSlots. An empty box inside the range changes nothing.
   EditResult setVoxel(glm::ivec3 v, std::uint8_t material);
   EditResult clearVoxel(glm::ivec3 v);
   EditResult fillBox(const VoxelBox& box, std::uint8_t material);

@@ -962,6 +962,15 @@ SolidExtraction extractSolid(const openvdb::GridBase& g, const LoadOptions& opti
   return out;
 }
 
+namespace {
+// Six significant figures, the exponent when needed: std::to_string's fixed notation prints 1e-30 as 0.000000.
+std::string figure(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+}  // namespace
+
 glm::dmat4 brickToObjectOf(const openvdb::GridBase& g, const std::string& file) {
   const openvdb::math::Transform& t = g.transform();
   if (!t.isLinear()) {
@@ -973,9 +982,9 @@ glm::dmat4 brickToObjectOf(const openvdb::GridBase& g, const std::string& file) 
   const openvdb::Vec3d size = t.voxelSize();
   for (int axis = 0; axis < 3; ++axis)
     if (!(size[axis] >= limits::kMinVoxelSize && size[axis] <= limits::kMaxVoxelSize))
-      throwBadInput(file + ": " + gridLabel(g) + " has a voxel size of " + std::to_string(size[axis]) + " along axis " +
-                    std::to_string(axis) + "; the valid range is " + std::to_string(limits::kMinVoxelSize) + " to " +
-                    std::to_string(limits::kMaxVoxelSize));
+      throwBadInput(file + ": " + gridLabel(g) + " has a voxel size of " + figure(size[axis]) + " along axis " +
+                    std::to_string(axis) + "; the valid range is " + figure(limits::kMinVoxelSize) + " to " +
+                    figure(limits::kMaxVoxelSize));
   openvdb::Mat4d m;
   try {
     m = t.baseMap()->getAffineMap()->getMat4();
@@ -986,13 +995,13 @@ glm::dmat4 brickToObjectOf(const openvdb::GridBase& g, const std::string& file) 
   for (int axis = 0; axis < 3; ++axis) {
     double len = std::sqrt(m(axis, 0) * m(axis, 0) + m(axis, 1) * m(axis, 1) + m(axis, 2) * m(axis, 2));
     if (!(len >= limits::kMinVoxelSize && len <= limits::kMaxVoxelSize))
-      throwBadInput(file + ": " + gridLabel(g) + " has a voxel size of " + std::to_string(len) + " along axis " +
-                    std::to_string(axis) + "; the valid range is " + std::to_string(limits::kMinVoxelSize) + " to " +
-                    std::to_string(limits::kMaxVoxelSize));
+      throwBadInput(file + ": " + gridLabel(g) + " has a voxel size of " + figure(len) + " along axis " +
+                    std::to_string(axis) + "; the valid range is " + figure(limits::kMinVoxelSize) + " to " +
+                    figure(limits::kMaxVoxelSize));
     if (!std::isfinite(m(3, axis)) || std::abs(m(3, axis)) > limits::kMaxCoordinate)
-      throwBadInput(file + ": " + gridLabel(g) + " has a translation of " + std::to_string(m(3, axis)) +
+      throwBadInput(file + ": " + gridLabel(g) + " has a translation of " + figure(m(3, axis)) +
                     " along axis " + std::to_string(axis) + "; coordinates must lie within +-" +
-                    std::to_string(limits::kMaxCoordinate));
+                    figure(limits::kMaxCoordinate));
   }
   // OpenVDB multiplies row vectors (translation in row 3); GLM's column-major m[col][row] of the
   // column-vector form holds the same numbers at the same indices.

@@ -167,7 +167,8 @@ int frameIndexOf(const Cursor& c, const Dict& d) {
   std::string f = value(d, "_f");
   if (f.empty()) return 0;
   auto v = parseInt(f);
-  if (!v || *v < 0 || *v > 1000000) c.fail("frame index \"" + f + "\" is not an integer in 0..1000000");
+  if (!v || *v < 0 || *v > kVoxMaxFrame)
+    c.fail("frame index \"" + f + "\" is not an integer in 0.." + std::to_string(kVoxMaxFrame));
   return int(*v);
 }
 
@@ -321,6 +322,9 @@ VoxFile readVox(std::span<const std::uint8_t> bytes, const std::string& name, co
   out.version = head.i32("the version");
   if (out.version < 150 || out.version > 200)
     throwBadInput(name + ": unsupported .vox version " + std::to_string(out.version) + " (this build reads 150 to 200)");
+  if (options.frame < 0 || options.frame > kVoxMaxFrame)
+    throwBadInput(name + ": frame " + std::to_string(options.frame) + " is outside 0.." + std::to_string(kVoxMaxFrame));
+  out.frame = options.frame;
 
   // MAIN's children span the rest of the file; every other chunk's children are skipped with it.
   auto header = [&](std::size_t at, std::size_t end, std::size_t& contentBegin, std::size_t& contentEnd,
@@ -349,7 +353,8 @@ VoxFile readVox(std::span<const std::uint8_t> bytes, const std::string& name, co
   std::map<std::string, int> skipped;
   glm::ivec3 pendingSize(0);
   bool hasPendingSize = false;
-  std::string pendingLabel;
+  std::string pendingLabel;  // "SIZE chunk at byte N", without the file name that messages start with
+  std::string packLabel;
   for (std::size_t at = mainEnd; at < mainNext;) {
     std::size_t begin, end, next;
     std::string id = header(at, mainNext, begin, end, next);
@@ -364,7 +369,7 @@ VoxFile readVox(std::span<const std::uint8_t> bytes, const std::string& name, co
                  " is outside 1.." + std::to_string(kVoxMaxModelSize) + " per axis");
       pendingSize = s;
       hasPendingSize = true;
-      pendingLabel = c.label();
+      pendingLabel = id + " chunk at byte " + std::to_string(at);
     } else if (id == "XYZI") {
       if (!hasPendingSize) c.fail("XYZI without a SIZE chunk before it");
       VoxModel m;
@@ -426,6 +431,12 @@ VoxFile readVox(std::span<const std::uint8_t> bytes, const std::string& name, co
         }
       }
       nodes.emplace(nodeId, std::move(node));
+    } else if (id == "PACK") {
+      if (out.packModels >= 0) c.fail("a second PACK chunk (the first is the " + packLabel + ")");
+      std::int32_t n = c.i32("the model count");
+      if (n < 1) c.fail("model count " + std::to_string(n) + " is not positive");
+      out.packModels = n;
+      packLabel = id + " chunk at byte " + std::to_string(at);
     } else if (id == "LAYR") {
       VoxLayer layer;
       layer.id = c.i32("the layer id");
@@ -439,7 +450,7 @@ VoxFile readVox(std::span<const std::uint8_t> bytes, const std::string& name, co
       m.props = c.dict("the property count");
       out.materials.push_back(std::move(m));
     } else {
-      // PACK, MATT, rOBJ, rCAM, NOTE, IMAP and anything newer: not needed for geometry.
+      // MATT, rOBJ, rCAM, NOTE, IMAP and anything newer: not needed for geometry.
       ++skipped[id];
     }
     at = next;
@@ -453,6 +464,24 @@ VoxFile readVox(std::span<const std::uint8_t> bytes, const std::string& name, co
   if (!nodes.empty()) {
     out.hasSceneGraph = true;
     SceneResolver(out, nodes, name, options.frame).run();
+    // The scene graph places the models itself (and animates them by keyframes); PACK adds nothing.
+    if (out.packModels >= 0) ++skipped["PACK"];
+  } else if (out.packModels >= 0) {
+    // Files from before the scene graph store an animation as a PACK chunk and one model per frame; drawn
+    // together the frames would lie on top of each other.
+    out.packFrames = true;
+    const std::size_t frames = out.models.size();
+    if (frames == 0) throwBadInput(name + ": " + packLabel + ": declares " + std::to_string(out.packModels) + " models, the file has none");
+    if (std::size_t(options.frame) >= frames)
+      throwBadInput(name + ": frame " + std::to_string(options.frame) + " is beyond the " + std::to_string(frames) +
+                    " frame" + (frames == 1 ? "" : "s") + " of its PACK animation (0.." + std::to_string(frames - 1) + ")");
+    out.instances.push_back({options.frame, VoxTransform{}, "", -1, -1});
+    std::string note = frames == 1 ? std::string("PACK animation: 1 model, frame 0 shown")
+                                   : "PACK animation: the " + std::to_string(frames) + " models are frames 0.." +
+                                         std::to_string(frames - 1) + ", frame " + std::to_string(options.frame) + " shown";
+    if (std::size_t(out.packModels) != frames)
+      note += " (the PACK chunk declares " + std::to_string(out.packModels) + " models; the file's count is used)";
+    out.notes.push_back(note);
   } else {
     for (std::size_t i = 0; i < out.models.size(); ++i) out.instances.push_back({int(i), VoxTransform{}, "", -1, -1});
   }

@@ -20,6 +20,8 @@ namespace vs {
 inline constexpr int kVoxMaxModelSize = 2048;       // per axis; MagicaVoxel itself stops at 256
 inline constexpr int kVoxMaxSceneDepth = 256;       // nested scene-graph nodes from the root to a shape
 inline constexpr std::size_t kVoxMaxInstances = 1u << 20;
+// Animation frames a caller may ask for, and keyframe indices a file may hold: 0..kVoxMaxFrame.
+inline constexpr int kVoxMaxFrame = 1000000;
 
 struct VoxVoxel {
   std::uint8_t x, y, z, colorIndex;  // colorIndex 1..255 (0 is refused)
@@ -67,14 +69,23 @@ struct VoxFile {
   bool hasPaletteChunk = false;            // false: MagicaVoxel's default palette
   std::vector<VoxMaterial> materials;
   std::vector<VoxLayer> layers;
-  bool hasSceneGraph = false;              // false: one instance per model at the origin, unrotated
+  bool hasSceneGraph = false;              // false: one instance per model at the origin, unrotated (but
+                                           // see packFrames)
+  int packModels = -1;                     // the PACK chunk's model count; -1 when the file has none
+  // A PACK chunk and no scene graph: the models are the frames of an animation (MagicaVoxel 0.98 and
+  // older), and only the model of the chosen frame is placed. With a scene graph the graph places the
+  // models and PACK is only a count.
+  bool packFrames = false;
+  int frame = 0;                           // the frame asked for (VoxReadOptions::frame)
   std::vector<VoxInstance> instances;      // visible shapes for the chosen frame, depth-first in child order
   std::vector<std::string> notes;          // choices the reader made: hidden layers/nodes skipped, materials
                                            // not rendered, chunks skipped
 };
 
 struct VoxReadOptions {
-  int frame = 0;  // animation frame: each node takes its last keyframe at or before it (else its first)
+  // Animation frame, 0..kVoxMaxFrame: each scene-graph node takes its last keyframe at or before it (else
+  // its first); in a file of PACK frames (VoxFile::packFrames) it is the model shown, and must be one of them.
+  int frame = 0;
 };
 
 // Reads a .vox file from memory. `name` is used in messages only. Preconditions: none on the bytes; every
@@ -82,7 +93,9 @@ struct VoxReadOptions {
 // unsupported version, a truncated or overlong chunk, sizes outside 1..kVoxMaxModelSize, voxel counts larger
 // than their chunk, voxels outside SIZE or with colour index 0, a scene graph with a dangling child, a cycle,
 // more than 2^22 node visits (a shared subtree counts once per path to it), a depth beyond kVoxMaxSceneDepth,
-// more than kVoxMaxInstances visible shapes, or a shape naming a missing model.
+// more than kVoxMaxInstances visible shapes, a shape naming a missing model, a second PACK chunk or one
+// whose count is not positive, a frame outside 0..kVoxMaxFrame, or (PACK frames) a frame the file does not
+// have, "<name>: frame F is beyond the N frames of its PACK animation (0..N-1)".
 VoxFile readVox(std::span<const std::uint8_t> bytes, const std::string& name, const VoxReadOptions& options = {});
 
 // Reads a .vox file from disk. Preconditions: none; a missing or unreadable file is vs::Error(BadInput)

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <unordered_map>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -91,8 +92,11 @@ Brickmap buildModelBrickmap(const std::vector<std::uint32_t>& voxels) {
 }  // namespace
 
 VoxAsset buildVoxAsset(const VoxFile& file, const VoxAssetOptions& options) {
-  if (!(options.voxelSize > 0.0) || !std::isfinite(options.voxelSize))
-    throwBadInput(file.file + ": voxel size must be a finite number greater than 0");
+  if (!(options.voxelSize > 0.0) || !std::isfinite(options.voxelSize)) {
+    char size[32];
+    std::snprintf(size, sizeof size, "%g", options.voxelSize);
+    throwBadInput(file.file + ": voxel size must be a finite number greater than 0, not " + size);
+  }
   VoxAsset asset;
   asset.notes = file.notes;
   std::vector<VoxInstance> chosen;
@@ -158,12 +162,15 @@ VoxAsset loadVox(const std::string& path, const VoxAssetOptions& options) {
   return buildVoxAsset(readVoxFile(path, read), options);
 }
 
-VoxInfo inspectVox(const std::string& path) {
-  VoxFile file = readVoxFile(path);
+VoxInfo inspectVox(const std::string& path, const VoxReadOptions& options) {
+  VoxFile file = readVoxFile(path, options);
   VoxInfo info;
   info.version = file.version;
   info.hasPaletteChunk = file.hasPaletteChunk;
   info.hasSceneGraph = file.hasSceneGraph;
+  info.packModels = file.packModels;
+  info.packFrames = file.packFrames;
+  info.frame = file.frame;
   info.materials = file.materials;
   info.layers = file.layers;
   info.notes = file.notes;

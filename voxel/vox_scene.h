@@ -83,6 +83,9 @@ struct VoxInfo {
   int version = 0;
   bool hasPaletteChunk = false;
   bool hasSceneGraph = false;
+  int packModels = -1;      // VoxFile::packModels
+  bool packFrames = false;  // the models are PACK animation frames and `instances` shows `frame` alone
+  int frame = 0;
   std::vector<VoxModelInfo> models;
   std::vector<VoxInstanceInfo> instances;
   std::vector<VoxMaterial> materials;
@@ -91,7 +94,7 @@ struct VoxInfo {
 };
 
 // Preconditions: none; the reader's errors propagate.
-VoxInfo inspectVox(const std::string& path);
+VoxInfo inspectVox(const std::string& path, const VoxReadOptions& options = {});
 
 }  // namespace vs
 

@@ -50,6 +50,11 @@ std::vector<std::uint8_t> encodeVox(const VoxWriteFile& file) {
   o.u32(0);
   const std::size_t mainChildren = o.bytes.size();
   o.u32(0);
+  if (file.pack) {
+    std::size_t at = o.begin("PACK");
+    o.i32(*file.pack);
+    o.end(at);
+  }
   for (const VoxModel& m : file.models) {
     std::size_t at = o.begin("SIZE");
     o.i32(m.size.x), o.i32(m.size.y), o.i32(m.size.z);

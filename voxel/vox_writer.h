@@ -32,6 +32,7 @@ struct VoxWriteNode {
 
 struct VoxWriteFile {
   int version = 200;
+  std::optional<int> pack;                               // a PACK chunk with this model count, first in MAIN
   std::vector<VoxModel> models;                          // each written as SIZE + XYZI
   std::optional<std::array<std::uint32_t, 256>> palette; // by colour index (entry 0 unused); none: no RGBA chunk
   std::vector<VoxWriteNode> nodes;                       // in this order, after the models
