@@ -124,7 +124,7 @@ std::vector<std::string> writeDemoWorld(const std::filesystem::path& dir) {
     "tower": { "file": "tower.vdb", "color": [0.7, 0.65, 0.6] },
     "tree": { "file": "tree.vdb" },
     "blob": { "file": "blob.vdb", "color": [0.8, 0.3, 0.25] },
-    "crates": { "file": "crates.vox", "voxel_size": 0.5 }
+    "crates": { "file": "crates.vox", "voxel_size": 1.0 }
   },
   "instances": [
     { "asset": "ground", "translate": [0, -3, 0] },
@@ -135,20 +135,20 @@ std::vector<std::string> writeDemoWorld(const std::filesystem::path& dir) {
     { "asset": "tree", "translate": [0, 0, 10] },
     { "asset": "tree", "translate": [-12, 0, 30], "scale": 1.5 },
     { "asset": "tree", "translate": [35, 0, -12], "rotate_deg": [0, 60, 0] },
-    { "asset": "blob", "translate": [-8, 0, -8] },
-    { "asset": "crates", "translate": [14, 0, 2], "rotate_deg": [0, 20, 0] }
+    { "asset": "blob", "translate": [-2, 0, 42] },
+    { "asset": "crates", "translate": [30, 0, 36], "rotate_deg": [0, 20, 0] }
   ],
-  "camera": { "position": [70, 45, 70], "target": [0, 5, 0], "up": [0, 1, 0], "fov_deg": 55,
+  "camera": { "position": [72, 40, 78], "target": [2, 14, 0], "up": [0, 1, 0], "fov_deg": 60,
               "near": 0.1, "far": 400, "width": 1280, "height": 720 },
-  "ambient": { "color": [0.6, 0.7, 1.0], "intensity": 0.25 },
+  "ambient": { "color": [0.6, 0.7, 1.0], "intensity": 0.2 },
   "lights": [
-    { "name": "sun", "type": "directional", "direction": [-0.4, -1.0, -0.3], "color": [1, 0.95, 0.9], "intensity": 3,
+    { "name": "sun", "type": "directional", "direction": [-0.8, -0.9, 0.2], "color": [1, 0.95, 0.9], "intensity": 2,
       "shadow": { "resolution": 2048, "cascades": 3, "lambda": 0.5, "max_distance": 200,
-                  "filter": "pcf5" } },
-    { "name": "lamp", "type": "spot", "position": [0, 30, 0], "direction": [0.2, -1, 0.1], "range": 60,
-      "inner_cone_deg": 20, "outer_cone_deg": 30, "color": [1, 0.8, 0.6], "intensity": 50,
+                  "filter": "pcf5", "contact_shadow": 0.5 } },
+    { "name": "lamp", "type": "spot", "position": [6, 26, 36], "direction": [-0.1, -1, 0.05], "range": 50,
+      "inner_cone_deg": 20, "outer_cone_deg": 30, "color": [1, 0.8, 0.6], "intensity": 2500,
       "shadow": { "resolution": 1024, "filter": "poisson16" } },
-    { "name": "torch", "type": "point", "position": [8, 6, 6], "range": 25, "color": [1, 0.6, 0.3], "intensity": 20,
+    { "name": "torch", "type": "point", "position": [36, 4, 44], "range": 25, "color": [1, 0.6, 0.3], "intensity": 120,
       "shadow": { "resolution": 512 } }
   ]
 }
