@@ -37,7 +37,12 @@ double voxelsFromBox(const glm::dvec3& p, const VoxelBox& box) {
 constexpr std::size_t kAll = std::size_t(-1);
 void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects, std::span<const SceneInstance> instances,
                     std::span<const std::size_t> sources, const Aabb& worldBounds, std::size_t onlyInstance = kAll,
-                    std::size_t onlyLight = kAll) {
+                    std::size_t onlyLight = kAll, std::size_t movedInstance = kAll,
+                    const glm::dmat4* movedBrickToWorld = nullptr) {
+  // A move is checked before it is made: instance movedInstance is read at movedBrickToWorld, its new place.
+  auto brickToWorld = [&](std::size_t i) -> const glm::dmat4& {
+    return i == movedInstance ? *movedBrickToWorld : instances[i].brickToWorld;
+  };
   const std::string file = desc.file.string();
   auto named = [&](std::size_t i) {
     return "instances[" + std::to_string(sources[i]) + "] (asset '" + desc.instances[sources[i]].asset + "')";
@@ -50,7 +55,7 @@ void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects,
     if (box.empty()) continue;
     for (int c = 0; c < 8; ++c) {
       glm::dvec4 p((c & 1) ? box.max.x : box.min.x, (c & 2) ? box.max.y : box.min.y, (c & 4) ? box.max.z : box.min.z, 1.0);
-      glm::dvec3 w(instances[i].brickToWorld * p);
+      glm::dvec3 w(brickToWorld(i) * p);
       for (int a = 0; a < 3; ++a)
         if (!limits::isWorldCoordinate(w[a]))
           throwBadInput(where + ": reaches " + num(w[a]) + " on axis " + std::to_string(a) +
@@ -75,7 +80,7 @@ void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects,
       if (skipped(i, onlyInstance)) continue;
       const VoxelBox box = objects[instances[i].object].brickmap.bounds();
       if (box.empty()) continue;
-      const glm::dmat4 worldToBrick = glm::inverse(instances[i].brickToWorld);
+      const glm::dmat4 worldToBrick = glm::inverse(brickToWorld(i));
       double worst = 0.0;
       for (const glm::dvec3& o : origins) worst = std::max(worst, voxelsFromBox(glm::dvec3(worldToBrick * glm::dvec4(o, 1.0)), box));
       if (worst > limits::kMaxRayVoxels)
@@ -180,13 +185,12 @@ void Scene::moveInstance(std::size_t i, const glm::dmat4& transform) {
   // a refused move leaves each array, bound and the BVH as they were.
   const glm::dmat4 brickToWorld = transform * brickToAsset_[i];
   const SceneData::Placement placement = data_.placeInstance(i, brickToWorld);
-  std::vector<SceneInstance> moved(instances_);
-  moved[i].brickToWorld = brickToWorld;
   // The load's placement checks, on the moved world: the moved instance alone, unless the world's bounds (where
   // directional rays start) changed with it.
   const bool sameBounds =
       placement.worldBounds.min == data_.worldBounds.min && placement.worldBounds.max == data_.worldBounds.max;
-  checkPlacement(desc_, objects_, moved, instanceSource_, placement.worldBounds, sameBounds ? i : kAll);
+  checkPlacement(desc_, objects_, instances_, instanceSource_, placement.worldBounds, sameBounds ? i : kAll, kAll, i,
+                 &brickToWorld);
   data_.applyPlacement(i, placement);
   instances_[i].brickToWorld = brickToWorld;
   if (sourceInstances_[instanceSource_[i]] == 1) desc_.instances[instanceSource_[i]].transform = transform;
