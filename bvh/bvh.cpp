@@ -168,7 +168,7 @@ Bvh Bvh::build(std::span<const Aabb> boxes) {
 void Bvh::refit(std::span<const Aabb> boxes) {
   if (boxes.size() != boxCount_) throwBadInput("Bvh::refit: box count changed; rebuild instead");
   for (std::size_t i = 0; i < boxes.size(); ++i)
-    if (!inTree_[i] && !boxes[i].empty()) missingInstance_ = true;
+    if (!inTree_[i] != boxes[i].empty()) missingInstance_ = true;
   // Children always follow their parent, so a reverse sweep sees both children before the parent.
   for (std::size_t n = nodes_.size(); n-- > 0;) {
     gpu::BvhNode& node = nodes_[n];
@@ -203,8 +203,17 @@ float Bvh::sahCost() const {
 bool Bvh::shouldRebuild() const {
   // Refit keeps the topology, so its cost only grows as instances drift from where they were grouped; a
   // rebuild (linear-ish in the instance count) pays off once the expected cost per ray is well above the
-  // fresh tree's. 1.5 tolerates ordinary animation jitter while catching trees that degrade badly.
+  // fresh tree's. kRebuildCostRatio tolerates ordinary animation jitter while catching trees that degrade badly.
   return missingInstance_ || sahCost() > builtSahCost_ * kRebuildCostRatio;
+}
+
+bool Bvh::update(std::span<const Aabb> boxes) {
+  if (boxes.size() == boxCount_) {
+    refit(boxes);
+    if (!shouldRebuild()) return false;
+  }
+  *this = build(boxes);
+  return true;
 }
 
 }  // namespace vs

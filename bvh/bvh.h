@@ -29,10 +29,8 @@ class Bvh {
   static constexpr float kIntersectionCost = 1.0f;
   static constexpr int kBins = 16;
   static constexpr int kMaxLeafSize = 4;
-  // Deepest leaf (root at depth 0). The CPU tiles' traversal (compute/cpu/tile_rays.h) keeps one pending
-  // sibling per level plus the two children it pushes on a stack of VS_BVH_STACK_SIZE
-  // (compute/shared/trace_view.h) entries: 64 - 2 levels fit
-  // (bvh_test checks the two constants agree; bvh/ sits below compute/ and does not include it).
+  // Deepest leaf (root at depth 0): bounds the builder's recursion on degenerate input (every traversal is
+  // stackless, through nodeEscapes, and needs no bound of its own).
   static constexpr int kMaxDepth = 62;
   // shouldRebuild() threshold: refit SAH cost over the cost at build time.
   static constexpr float kRebuildCostRatio = 1.5f;
@@ -43,12 +41,18 @@ class Bvh {
 
   // Recomputes node bounds bottom-up for moved instances, keeping the topology. Precondition: the same
   // number of boxes as at build (throws vs::Error(BadInput) otherwise). A box that was empty at build is not
-  // in the tree: if it becomes non-empty, shouldRebuild() turns true.
+  // in the tree: if it becomes non-empty, shouldRebuild() turns true; so it does when a box in the tree
+  // becomes empty (a removed instance), so that the tree never lists an instance that has no box.
   void refit(std::span<const Aabb> boxes);
 
-  // True when the refitted tree has degraded enough (sahCost() > builtSahCost() * kRebuildCostRatio), or an
-  // instance that was empty at build now has a box, that build() should be called again.
+  // True when the refitted tree has degraded enough (sahCost() > builtSahCost() * kRebuildCostRatio), or the
+  // boxes that are empty are no longer those that were at build, that build() should be called again.
   bool shouldRebuild() const;
+
+  // The rule by which a scene keeps its tree over changed boxes, in one place: refit when the boxes are as
+  // many as at build and the refitted tree does not need a rebuild (shouldRebuild), else build anew.
+  // Returns true when it rebuilt. Precondition: boxes finite.
+  bool update(std::span<const Aabb> boxes);
 
   // SAH cost of the current tree (relative units); compare with the cost at build time to decide a rebuild.
   float sahCost() const;
@@ -68,7 +72,7 @@ class Bvh {
   float builtSahCost_ = 0.0f;
   std::size_t boxCount_ = 0;
   std::vector<std::uint8_t> inTree_;  // per box: non-empty at build
-  bool missingInstance_ = false;
+  bool missingInstance_ = false;  // a box's emptiness differs from what it was at build
 };
 
 }  // namespace vs

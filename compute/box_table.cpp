@@ -1,6 +1,7 @@
 #include "compute/box_table.h"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <limits>
@@ -19,7 +20,12 @@ namespace {
 // each face by one brick while the slab it adds is empty (a summed-area table answers that), up to
 // kMaxBoxExtent per side: streets and courtyards become long boxes instead of small cubes. The brick's
 // empty sector or region (extents 0, log2 5 or 7) is kept when it holds more voxels.
-void encodeEmptyBoxes(std::int32_t* codes, int nx, int ny, int nz) {
+// Only the bricks in [outLo, outHi) are encoded; the others keep their codes and are read as empty or not.
+// A brick's code depends only on the bricks within kMaxBoxExtent of it (its box reaches no farther, and the
+// distance is exact within any box holding the brick and its nearest non-empty one), so a grid cut out of a
+// larger one around the encoded bricks, kMaxBoxExtent wider on every side where that one goes on, gives the
+// codes the whole grid gives (updateBoxTable).
+void encodeEmptyBoxes(std::int32_t* codes, int nx, int ny, int nz, glm::ivec3 outLo, glm::ivec3 outHi) {
   constexpr int kFar = kMaxBoxExtent + 1;
   const int px = nx + 2, py = ny + 2, pz = nz + 2;
   const std::size_t plane = std::size_t(px) * py;
@@ -70,9 +76,9 @@ void encodeEmptyBoxes(std::int32_t* codes, int nx, int ny, int nz) {
     for (int y = ny; y >= 1; --y)
       for (int x = nx; x >= 1; --x) relax(at(x, y, z), -1);
   // Each brick's box depends only on the tables above: layers of bricks grow their boxes in parallel.
-  tbb::parallel_for(0, nz, [&](int z) {
-    for (int y = 0; y < ny; ++y)
-      for (int x = 0; x < nx; ++x) {
+  tbb::parallel_for(outLo.z, outHi.z, [&](int z) {
+    for (int y = outLo.y; y < outHi.y; ++y)
+      for (int x = outLo.x; x < outHi.x; ++x) {
         std::int32_t& code = codeAt(x, y, z);
         if (solid(code)) continue;
         const glm::ivec3 b(x, y, z);
@@ -158,15 +164,22 @@ bool brickCode(const SceneData& scene, const gpu::ObjectRecord& obj, glm::ivec3 
   return true;
 }
 
+// Bricks of one object's table (16^3 per region slot).
+std::uint64_t codeCount(const gpu::ObjectRecord& obj) {
+  return std::uint64_t(obj.regionDims.x) * std::uint64_t(obj.regionDims.y) * std::uint64_t(obj.regionDims.z) * 4096u;
+}
+
+std::uint64_t clampedLimit(std::uint64_t maxElements) {
+  return std::min<std::uint64_t>(maxElements, std::uint64_t(std::numeric_limits<std::int32_t>::max()));
+}
+
 }  // namespace
 
 std::vector<std::int32_t> buildBoxTable(const SceneData& scene, std::uint64_t maxElements) {
-  maxElements = std::min<std::uint64_t>(maxElements, std::uint64_t(std::numeric_limits<std::int32_t>::max()));
+  maxElements = clampedLimit(maxElements);
   const std::uint64_t heads = scene.objects.size();
   std::uint64_t codes = 0;
-  for (const gpu::ObjectRecord& obj : scene.objects)
-    codes += std::uint64_t(obj.regionDims.x) * std::uint64_t(obj.regionDims.y) * std::uint64_t(obj.regionDims.z) *
-             4096u;
+  for (const gpu::ObjectRecord& obj : scene.objects) codes += codeCount(obj);
   const std::uint64_t occupancyStart = heads + codes;
   if (occupancyStart + scene.occupancy.size() > maxElements) return {};
   std::vector<std::int32_t> table(occupancyStart + scene.occupancy.size());
@@ -185,12 +198,115 @@ std::vector<std::int32_t> buildBoxTable(const SceneData& scene, std::uint64_t ma
           if (code >= 0) code += std::int32_t(occupancyStart);
         }
     if (!consistent) return {};
-    encodeEmptyBoxes(objectCodes, dims.x, dims.y, dims.z);
+    encodeEmptyBoxes(objectCodes, dims.x, dims.y, dims.z, glm::ivec3(0), dims);
     next += std::uint64_t(dims.x) * dims.y * dims.z;
   }
   for (std::size_t i = 0; i < scene.occupancy.size(); ++i)
     table[occupancyStart + i] = std::bit_cast<std::int32_t>(scene.occupancy[i]);
   return table;
+}
+
+BoxTableUpdate updateBoxTable(std::vector<std::int32_t>& table, const SceneData& scene, const SceneDelta& delta,
+                              std::uint64_t maxElements) {
+  BoxTableUpdate result;
+  auto rebuild = [&] {
+    table = buildBoxTable(scene, maxElements);
+    result.rebuilt = true;
+    result.rewritten.clear();
+    return result;
+  };
+  maxElements = clampedLimit(maxElements);
+  if (delta.voxelLayout || table.empty()) return rebuild();
+  // The table's codes must sit where this scene's layout puts them: a head per object, each object's codes
+  // where its head says. An added object or a grown region table moves them (a grown table of any object but
+  // the last one also lays the voxel arrays out again, and of the last one the delta says so).
+  const std::size_t heads = scene.objects.size();
+  if (table.size() < heads) return rebuild();
+  std::uint64_t next = heads;
+  for (std::size_t o = 0; o < heads; ++o) {
+    if (std::uint64_t(table[o]) != next || table[o] < 0) return rebuild();
+    next += codeCount(scene.objects[o]);
+  }
+  const std::uint64_t occupancyStart = next;
+  if (table.size() < occupancyStart) return rebuild();
+  const std::uint64_t copied = table.size() - occupancyStart;
+  const std::uint64_t words = scene.occupancy.size();
+  if (copied > words || occupancyStart + words > maxElements) return rebuild();
+
+  auto rewrote = [&](std::uint64_t first, std::uint64_t count) {
+    if (count > 0) result.rewritten.push_back({std::size_t(first), std::size_t(count)});
+  };
+  // The occupancy copy: the words the delta rewrote, and those the array gained at its end.
+  if (words > copied) {
+    table.resize(std::size_t(occupancyStart + words));
+    for (std::uint64_t i = copied; i < words; ++i)
+      table[std::size_t(occupancyStart + i)] = std::bit_cast<std::int32_t>(scene.occupancy[std::size_t(i)]);
+    rewrote(occupancyStart + copied, words - copied);
+  }
+  for (const SceneDirtyRange& r : delta.ranges) {
+    if (r.array != SceneArray::Occupancy) continue;
+    const std::uint64_t first = r.byteOffset / sizeof(std::uint32_t);
+    const std::uint64_t end = std::min<std::uint64_t>(words, (r.byteOffset + r.byteSize + 3) / sizeof(std::uint32_t));
+    for (std::uint64_t i = first; i < end; ++i)
+      table[std::size_t(occupancyStart + i)] = std::bit_cast<std::int32_t>(scene.occupancy[std::size_t(i)]);
+    if (end > first) rewrote(occupancyStart + first, end - first);
+  }
+
+  // The codes around each edited box: a brick's code changes only where a brick within kMaxBoxExtent of it
+  // changed (its empty box, its empty sector or region), and depends only on bricks within kMaxBoxExtent of it.
+  std::vector<std::int32_t> window;
+  for (const ObjectBricks& edited : delta.editedBricks) {
+    if (edited.object >= heads) return rebuild();
+    const gpu::ObjectRecord& obj = scene.objects[edited.object];
+    const glm::ivec3 dims = glm::ivec3(obj.regionDims) * 16, origin = glm::ivec3(obj.regionOrigin) * 16;
+    // In the object's brick grid, as 64-bit so that boxes near the coordinate limits do not overflow.
+    auto clip = [&](glm::i64vec3 lo, glm::i64vec3 hi, glm::ivec3& outLo, glm::ivec3& outHi) {
+      lo = glm::max(lo, glm::i64vec3(0));
+      hi = glm::min(hi, glm::i64vec3(dims));
+      outLo = glm::ivec3(lo);
+      outHi = glm::ivec3(glm::max(hi, lo));
+      return outLo.x < outHi.x && outLo.y < outHi.y && outLo.z < outHi.z;
+    };
+    const glm::i64vec3 eLo = glm::i64vec3(edited.bricks.min) - glm::i64vec3(origin);
+    const glm::i64vec3 eHi = glm::i64vec3(edited.bricks.max) - glm::i64vec3(origin);
+    glm::ivec3 bLo, bHi, aLo, aHi, wLo, wHi;
+    if (edited.bricks.empty() || !clip(eLo, eHi, bLo, bHi)) continue;
+    clip(glm::i64vec3(bLo) - std::int64_t(kMaxBoxExtent), glm::i64vec3(bHi) + std::int64_t(kMaxBoxExtent), aLo, aHi);
+    clip(glm::i64vec3(aLo) - std::int64_t(kMaxBoxExtent), glm::i64vec3(aHi) + std::int64_t(kMaxBoxExtent), wLo, wHi);
+    const glm::ivec3 w = wHi - wLo;
+    window.assign(std::size_t(w.x) * w.y * w.z, 0);
+    std::atomic<bool> consistent{true};
+    tbb::parallel_for(0, w.z, [&](int z) {
+      for (int y = 0; y < w.y; ++y)
+        for (int x = 0; x < w.x; ++x) {
+          std::int32_t& code = window[(std::size_t(z) * w.y + y) * w.x + x];
+          if (!brickCode(scene, obj, origin + wLo + glm::ivec3(x, y, z), code)) consistent.store(false);
+          if (code >= 0) code += std::int32_t(occupancyStart);
+        }
+    });
+    if (!consistent.load()) return rebuild();
+    encodeEmptyBoxes(window.data(), w.x, w.y, w.z, aLo - wLo, aHi - wLo);
+    const std::uint64_t objectFirst = std::uint64_t(table[edited.object]);
+    for (int z = aLo.z; z < aHi.z; ++z)
+      for (int y = aLo.y; y < aHi.y; ++y) {
+        const std::uint64_t first = objectFirst + (std::uint64_t(z) * dims.y + y) * dims.x + aLo.x;
+        const std::int32_t* src = &window[(std::size_t(z - wLo.z) * w.y + (y - wLo.y)) * w.x + (aLo.x - wLo.x)];
+        std::copy(src, src + (aHi.x - aLo.x), table.begin() + std::ptrdiff_t(first));
+        rewrote(first, std::uint64_t(aHi.x - aLo.x));
+      }
+  }
+
+  std::sort(result.rewritten.begin(), result.rewritten.end());
+  std::vector<std::pair<std::size_t, std::size_t>> merged;
+  for (const auto& r : result.rewritten) {
+    if (!merged.empty() && merged.back().first + merged.back().second >= r.first)
+      merged.back().second =
+          std::max(merged.back().first + merged.back().second, r.first + r.second) - merged.back().first;
+    else
+      merged.push_back(r);
+  }
+  result.rewritten = std::move(merged);
+  return result;
 }
 
 }  // namespace vs

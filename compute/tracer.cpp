@@ -3,6 +3,8 @@
 #include <chrono>
 #include <thread>
 
+#include "compute/cpu/cpu_tracer.h"
+#include "compute/vulkan/vulkan_tracer.h"
 #include "voxel/error.h"
 
 namespace vs {
@@ -25,6 +27,11 @@ class CpuBackend final : public Tracer {
     // The fast path's tables depend on the voxels only: moved instances keep them.
     if (!tracer_) throwRuntime("Tracer::instancesMoved called before setScene()");
     (void)scene;
+  }
+  void bindDelta(const SceneData& scene, const SceneDelta& delta) override {
+    if (!tracer_) throwRuntime("Tracer::sceneChanged called before setScene()");
+    (void)scene;
+    tracer_->sceneChanged(delta);
   }
   TraceStats traceShadow(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) override {
     return timed(raysOf(views), [&] { bound().trace(views, layers, options_.path, options_.threads); });
@@ -71,6 +78,8 @@ class VulkanBackend final : public Tracer {
   std::string deviceName() const override { return tracer_.device().name; }
   void bindScene(const SceneData& scene) override { tracer_.upload(scene); }
   void bindMovedInstances(const SceneData& scene) override { tracer_.uploadInstances(scene); }
+  void bindDelta(const SceneData& scene, const SceneDelta& delta) override { tracer_.update(scene, delta); }
+  std::uint64_t bytesUploaded() const override { return tracer_.bytesUploaded(); }
   TraceStats traceShadow(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) override {
     return tracer_.trace(views, layers);
   }
@@ -89,6 +98,10 @@ class VulkanBackend final : public Tracer {
 }  // namespace
 
 std::unique_ptr<Tracer> makeCpuTracer(const CpuTracerOptions& options) { return std::make_unique<CpuBackend>(options); }
+
+void Tracer::throwNullScene() { throwBadInput("Tracer::setScene: no scene (a null pointer)"); }
+
+std::unique_ptr<Tracer> makeVulkanTracer() { return makeVulkanTracer(VulkanOptions{}); }
 
 std::unique_ptr<Tracer> makeVulkanTracer(const VulkanOptions& options) {
   return std::make_unique<VulkanBackend>(options);

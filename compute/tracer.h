@@ -10,11 +10,14 @@
 #include <string>
 #include <vector>
 
-#include "compute/cpu/cpu_tracer.h"
 #include "compute/scene_data.h"
-#include "compute/vulkan/vulkan_tracer.h"
+#include "compute/trace_types.h"
 
 namespace vs {
+
+class CpuTracer;
+class VulkanTracer;
+struct VulkanOptions;
 
 class Tracer {
  public:
@@ -25,23 +28,48 @@ class Tracer {
   // What runs the rays: the Vulkan device's name, or "CPU, N threads".
   virtual std::string deviceName() const = 0;
 
-  // Binds the scene, after it was built or any voxel changed (edits, objects added). The CPU backend reads
-  // `scene` in place and keeps a pointer to it: it must outlive the tracer or the next setScene. The Vulkan
-  // backend copies it to the device. Throws vs::Error(Runtime) when it does not fit the device.
-  void setScene(const SceneData& scene) {
+  // Binds the scene, after it was built or any voxel changed (edits, objects added). The shared form keeps
+  // the arrays alive while they are bound, so they can never be traced after they were freed (what
+  // FrameRenderer uses). The reference form does not: the CPU backend reads `scene` in place, so it must
+  // outlive the tracer or the next setScene. The Vulkan backend copies it to the device. Throws
+  // vs::Error(Runtime) when it does not fit the device.
+  void setScene(std::shared_ptr<const SceneData> scene) {
+    if (!scene) throwNullScene();
+    bindScene(*scene);
+    owned_ = std::move(scene);
     ++sceneVersion_;
+  }
+  void setScene(const SceneData& scene) {
     bindScene(scene);
+    owned_.reset();
+    ++sceneVersion_;
+  }
+  // The per-frame update after changes the scene reported (SceneDelta from SceneData's changes): only the
+  // byte ranges, box-table entries, instances and BVH the delta names are copied again. Precondition: `scene`
+  // is the bound one, changed only as the deltas since the last bind or update say.
+  void sceneChanged(const SceneData& scene, const SceneDelta& delta) {
+    bindDelta(scene, delta);
+    ++sceneVersion_;
   }
   // The per-frame update when only instances moved (SceneData::moveInstance): no voxel data is copied again.
   // Precondition: setScene was called with this scene and no voxel changed since.
   void instancesMoved(const SceneData& scene) {
-    ++sceneVersion_;
     bindMovedInstances(scene);
+    ++sceneVersion_;
   }
-  // Counts the scene updates bound so far (setScene and instancesMoved calls). Whatever was traced at one
-  // version stays exact while the version holds, so a frame loop keeps the shadow layers whose view did not
-  // change (FrameRenderer) instead of tracing them again.
+  // Counts the scene updates bound so far (setScene, sceneChanged and instancesMoved calls). A caller that
+  // keeps results across frames (FrameRenderer) compares it with the count after its own last update: any
+  // other update means it no longer knows what the tracer holds.
   std::uint64_t sceneVersion() const { return sceneVersion_; }
+  // The arrays bound through the shared form of setScene (null after the reference form). Updates by anyone
+  // (sceneChanged, instancesMoved, setScene of the same arrays) bring the tracer's copy to the arrays' current
+  // state, so every holder of the same arrays may keep using it.
+  const std::shared_ptr<const SceneData>& boundScene() const { return owned_; }
+  // Bytes copied to the device so far by scene binds and updates (0 on the CPU backend).
+  virtual std::uint64_t bytesUploaded() const { return 0; }
+
+  // Expires when the tracer is destroyed: a FrameRenderer made on it says so instead of using a dead tracer.
+  std::weak_ptr<const int> liveness() const { return alive_; }
 
   // The three ray kinds. Preconditions: setScene was called; views as in CpuTracer::trace; the outputs are as
   // long as `rays` (else vs::Error(BadInput)).
@@ -57,9 +85,13 @@ class Tracer {
  protected:
   virtual void bindScene(const SceneData& scene) = 0;
   virtual void bindMovedInstances(const SceneData& scene) = 0;
+  virtual void bindDelta(const SceneData& scene, const SceneDelta& delta) = 0;
 
  private:
+  [[noreturn]] static void throwNullScene();
   std::uint64_t sceneVersion_ = 0;
+  std::shared_ptr<const SceneData> owned_;
+  std::shared_ptr<const int> alive_ = std::make_shared<const int>(0);
 };
 
 struct CpuTracerOptions {
@@ -67,10 +99,11 @@ struct CpuTracerOptions {
   int threads = 0;  // <= 0: every hardware thread
 };
 
-// Precondition for both: the scene passed to setScene outlives its use (see Tracer::setScene).
 std::unique_ptr<Tracer> makeCpuTracer(const CpuTracerOptions& options = {});
-// Throws vs::Error(Runtime) when no usable Vulkan device exists (VulkanTracer).
-std::unique_ptr<Tracer> makeVulkanTracer(const VulkanOptions& options = {});
+// Throws vs::Error(Runtime) when no usable Vulkan device exists (VulkanTracer; its options in
+// compute/vulkan/vulkan_tracer.h).
+std::unique_ptr<Tracer> makeVulkanTracer();
+std::unique_ptr<Tracer> makeVulkanTracer(const VulkanOptions& options);
 
 }  // namespace vs
 

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -44,6 +45,18 @@ double roundUpDiameter(double d) {
 
 }  // namespace
 
+Aabb depthRangeBounds(const Aabb& worldBounds) {
+  if (worldBounds.empty()) return worldBounds;
+  const glm::dvec3 lo(worldBounds.min), hi(worldBounds.max);
+  const glm::dvec3 size = hi - lo;
+  const double side = std::max({size.x, size.y, size.z, 1.0});
+  const double step = std::exp2(std::ceil(std::log2(side / 4.0)));
+  Aabb out;
+  out.min = glm::vec3((glm::floor(lo / step) - 1.0) * step);
+  out.max = glm::vec3((glm::ceil(hi / step) + 1.0) * step);
+  return out;
+}
+
 CascadeFit fitCascade(const CameraFrame& camera, double sliceNear, double sliceFar, const glm::dvec3& lightDirection,
                       int resolution, const Aabb& worldBounds) {
   // The slice's corners lie at distance z * k from the view axis (k: the half-diagonal slope of the frustum).
@@ -62,15 +75,19 @@ CascadeFit fitCascade(const CameraFrame& camera, double sliceNear, double sliceF
   const glm::dvec3 lightCentre = basis * centre;
   // Whole texels: a camera that moves by less than a texel leaves the matrices bit-identical, and one that
   // moves further scrolls the layer by whole texels.
-  fit.snappedCentre = glm::dvec2(std::floor(lightCentre.x / fit.texelWorld) * fit.texelWorld,
-                                 std::floor(lightCentre.y / fit.texelWorld) * fit.texelWorld);
+  const double cellX = std::floor(lightCentre.x / fit.texelWorld), cellY = std::floor(lightCentre.y / fit.texelWorld);
+  fit.snappedCentre = glm::dvec2(cellX * fit.texelWorld, cellY * fit.texelWorld);
+  // The window spans cellX -+ resolution / 2 texels; its top row is the highest light-space y.
+  fit.windowOrigin = glm::i64vec2(std::int64_t(cellX) - resolution / 2, -(std::int64_t(cellY) + resolution / 2));
+  fit.basis = basis;
 
   // Depth along the light from the scene bounds (not the slice): every caster is in front of the near plane,
   // whichever part of the scene the camera sees, and the range never changes with the camera.
   glm::dvec3 lo(-0.5), hi(0.5);
-  if (!worldBounds.empty()) {
-    lo = glm::dvec3(worldBounds.min);
-    hi = glm::dvec3(worldBounds.max);
+  const Aabb depthBox = depthRangeBounds(worldBounds);
+  if (!depthBox.empty()) {
+    lo = glm::dvec3(depthBox.min);
+    hi = glm::dvec3(depthBox.max);
   }
   double zMin = std::numeric_limits<double>::infinity(), zMax = -zMin;
   for (int corner = 0; corner < 8; ++corner) {
@@ -82,6 +99,8 @@ CascadeFit fitCascade(const CameraFrame& camera, double sliceNear, double sliceF
   const double size = std::max(glm::length(hi - lo), 1.0);
   const double pad = 1e-3 * size;
   const double nearDist = -zMax - pad, farDist = -zMin + pad;
+  fit.nearDist = nearDist;
+  fit.farDist = farDist;
 
   const double r = 0.5 * fit.diameter;
   const glm::dvec2 s = fit.snappedCentre;

@@ -53,22 +53,32 @@ ShadeInputs makeShadeInputs(const SceneDesc& scene, std::span<const LightView> v
                             std::span<const ShadowLayer> layers, bool raytraced) {
   if (layers.size() != views.size()) throwBadInput("lighting: " + std::to_string(layers.size()) + " layers for " +
                                                    std::to_string(views.size()) + " views");
+  for (std::size_t i = 0; i < views.size(); ++i)
+    if (layers[i].width != views[i].resolution || layers[i].height != views[i].resolution)
+      throwBadInput("lighting: layer " + views[i].name + " is " + std::to_string(layers[i].width) + "x" +
+                    std::to_string(layers[i].height) + ", its view " + std::to_string(views[i].resolution) + " square");
+  ShadeInputs in = makeShadeRecords(scene, views, raytraced);
+  in.shadowTexels.resize(shadeStoreTexels(views));
+  std::size_t at = 0;
+  for (const ShadowLayer& layer : layers) {
+    std::copy(layer.texels.begin(), layer.texels.end(), in.shadowTexels.begin() + std::ptrdiff_t(at));
+    at += layer.texels.size();
+  }
+  return in;
+}
+
+ShadeInputs makeShadeRecords(const SceneDesc& scene, std::span<const LightView> views, bool raytraced) {
   ShadeInputs in;
   std::size_t texels = 0;
-  for (const ShadowLayer& layer : layers) texels += layer.texels.size();
-  in.shadowTexels.reserve(texels);
   for (std::size_t i = 0; i < views.size(); ++i) {
     const LightView& v = views[i];
-    const ShadowLayer& layer = layers[i];
-    if (layer.width != v.resolution || layer.height != v.resolution)
-      throwBadInput("lighting: layer " + v.name + " is " + std::to_string(layer.width) + "x" +
-                    std::to_string(layer.height) + ", its view " + std::to_string(v.resolution) + " square");
     gpu::ShadeView sv{};
     sv.eyeToClip = glm::mat4(v.eyeToClip);
     sv.clipToEye = v.trace.clipToEye;
     sv.eye = glm::vec4(glm::vec3(v.trace.eyeHigh), float(v.texelWorld));
     sv.eyeLow = glm::vec4(glm::vec3(v.trace.eyeLow), 0.0f);
-    sv.trace = glm::ivec4(v.depthPoint, 0, 0, 0);
+    const glm::ivec2 ring = ringOffset(v);
+    sv.trace = glm::ivec4(v.depthPoint, ring.x, ring.y, 0);
     // World units per unit of encoded depth: an orthographic view's NDC depth is linear in the distance along
     // the light, at the rate of its projection's z row.
     double depthScale = 1.0;
@@ -77,14 +87,14 @@ ShadeInputs makeShadeInputs(const SceneDesc& scene, std::span<const LightView> v
       depthScale = 1.0 / glm::length(row);
     }
     sv.split = glm::vec4(float(v.splitNear), float(v.splitFar), v.range, float(depthScale));
-    sv.info = glm::ivec4(int(in.shadowTexels.size()), v.resolution, v.encoding, v.cascade);
+    sv.info = glm::ivec4(int(texels), v.resolution, v.encoding, v.cascade);
     in.views.push_back(sv);
-    in.shadowTexels.insert(in.shadowTexels.end(), layer.texels.begin(), layer.texels.end());
+    texels += std::size_t(v.resolution) * std::size_t(v.resolution);
   }
   for (std::size_t li = 0; li < scene.lights.size(); ++li) {
     const LightDesc& l = scene.lights[li];
     gpu::ShadeLight sl{};
-    sl.color = glm::vec4(l.color * l.intensity, 0.0f);
+    sl.color = glm::vec4(l.enabled ? l.color * l.intensity : glm::vec3(0.0f), 0.0f);
     sl.position = glm::vec4(l.position, l.range);
     sl.direction = glm::vec4(l.direction, float(std::cos(glm::radians(double(l.outerConeDeg)))));
     int first = 0, count = 0;
@@ -94,7 +104,7 @@ ShadeInputs makeShadeInputs(const SceneDesc& scene, std::span<const LightView> v
       ++count;
     }
     float contact = 0.0f;
-    if (l.shadow) {
+    if (l.shadow && l.enabled) {
       sl.bias = glm::vec4(l.shadow->depthBias, l.shadow->normalBias, l.shadow->slopeBias, l.shadow->lightSize);
       contact = l.shadow->contactShadow;
       sl.extra = glm::vec4(float(std::cos(glm::radians(double(l.innerConeDeg)))), contact, l.shadow->cascadeBlend, 0.0f);
@@ -105,9 +115,15 @@ ShadeInputs makeShadeInputs(const SceneDesc& scene, std::span<const LightView> v
     }
     in.lights.push_back(sl);
     // A light without shadow casts none, in ray-traced shadows too.
-    in.rayLength.push_back(!l.shadow ? 0.0f : raytraced ? -1.0f : contact);
+    in.rayLength.push_back(!l.shadow || !l.enabled ? 0.0f : raytraced ? -1.0f : contact);
   }
   return in;
+}
+
+std::size_t shadeStoreTexels(std::span<const LightView> views) {
+  std::size_t texels = 0;
+  for (const LightView& v : views) texels += std::size_t(v.resolution) * std::size_t(v.resolution);
+  return texels;
 }
 
 gpu::ShadePush makeShadePush(const SceneDesc& scene, int width, int height, int mode, bool raytraced) {
@@ -156,6 +172,21 @@ ShadeOutput shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, co
     }
   });
   return out;
+}
+
+void shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
+                std::span<const std::uint32_t> rayVisibility, std::span<const std::uint32_t> pixels, ShadeOutput& out) {
+  std::vector<std::uint32_t> clear;
+  rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
+  const std::size_t lights = inputs.lights.size();
+  if (out.color.size() != gbuffer.texels.size() || out.shadowTerms.size() != gbuffer.texels.size() * lights)
+    throwBadInput("lighting: the output to update is not sized for this frame");
+  gpu::CpuShading shading{inputs.shadowTexels.data(), inputs.views.data(), inputs.lights.data(), rayVisibility.data(),
+                          out.shadowTerms.data()};
+  tbb::parallel_for(std::size_t(0), pixels.size(), [&](std::size_t k) {
+    const std::uint32_t pixel = pixels[k];
+    out.color[pixel] = shading.vsShadePixel(push, int(pixel), gbuffer.texels[pixel]);
+  });
 }
 
 float shadowTermAt(const ShadeInputs& inputs, std::size_t light, const gpu::GBufferTexel& texel,

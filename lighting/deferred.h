@@ -27,10 +27,19 @@ struct ShadeInputs {
   std::vector<float> rayLength;
 };
 
-// Preconditions: views as buildLightViews gave them for scene, layers[i] traced from views[i].
+// Preconditions: views as buildLightViews gave them for scene, layers[i] traced from views[i] and stored as
+// FrameRenderer stores it (ring order for cascades: traceLayers in lighting/renderer.h).
 // raytraced: every light gets a whole visibility ray instead of its shadow maps.
 ShadeInputs makeShadeInputs(const SceneDesc& scene, std::span<const LightView> views,
                             std::span<const ShadowLayer> layers, bool raytraced);
+
+// The same records with shadowTexels left empty: the views' layers take resolution^2 texels each, in view order,
+// from views[i].info.x on, and a caller that keeps the layers in place sizes and fills the store itself
+// (FrameRenderer: a frame whose layout did not move hands its kept store over instead of allocating one).
+ShadeInputs makeShadeRecords(const SceneDesc& scene, std::span<const LightView> views, bool raytraced);
+
+// Texels the views' layers take together: the store makeShadeRecords' views index into.
+std::size_t shadeStoreTexels(std::span<const LightView> views);
 
 // The push block of a frame: ambient, sky colour, size, light count, mode (VS_SHADE_*) and shadow source.
 gpu::ShadePush makeShadePush(const SceneDesc& scene, int width, int height, int mode, bool raytraced);
@@ -45,6 +54,11 @@ struct ShadeOutput {
 // the size; inputs from makeShadeInputs for the same lights and shadow source as the push block.
 ShadeOutput shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                        std::span<const std::uint32_t> rayVisibility);
+
+// The same for the given pixels only (row-major indices, each at most once): their colours and shadow terms in
+// `out`, sized for the frame (else vs::Error(BadInput)), are replaced; the others are left as they are.
+void shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
+                std::span<const std::uint32_t> rayVisibility, std::span<const std::uint32_t> pixels, ShadeOutput& out);
 
 // The checks both passes make: the G-buffer, the push block and the lights agree on sizes, and there is one
 // visibility answer per pixel and light; returns those answers, or all-clear ones (kept in `clear`) when none

@@ -11,17 +11,31 @@
 
 namespace vs {
 
+namespace {
+
+gpu::TraceRay primaryRay(const CameraFrame& camera, int x, int y) {
+  const glm::dvec3 d = pixelDirection(camera, x, y);
+  // Between the near and far planes, as a rasteriser clips: the cascades' splits start at `near`, so
+  // whatever the camera sees lies in one of them.
+  const double forward = glm::dot(d, camera.forward);
+  return gpu::makeTraceRay(camera.position, d, float(camera.nearPlane / forward), float(camera.farPlane / forward));
+}
+
+}  // namespace
+
 std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera) {
   std::vector<gpu::TraceRay> rays(std::size_t(camera.width) * std::size_t(camera.height));
   tbb::parallel_for(0, camera.height, [&](int y) {
-    for (int x = 0; x < camera.width; ++x) {
-      const glm::dvec3 d = pixelDirection(camera, x, y);
-      // Between the near and far planes, as a rasteriser clips: the cascades' splits start at `near`, so
-      // whatever the camera sees lies in one of them.
-      const double forward = glm::dot(d, camera.forward);
-      rays[std::size_t(y) * std::size_t(camera.width) + std::size_t(x)] = gpu::makeTraceRay(
-          camera.position, d, float(camera.nearPlane / forward), float(camera.farPlane / forward));
-    }
+    for (int x = 0; x < camera.width; ++x)
+      rays[std::size_t(y) * std::size_t(camera.width) + std::size_t(x)] = primaryRay(camera, x, y);
+  });
+  return rays;
+}
+
+std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera, std::span<const std::uint32_t> pixels) {
+  std::vector<gpu::TraceRay> rays(pixels.size());
+  tbb::parallel_for(std::size_t(0), pixels.size(), [&](std::size_t k) {
+    rays[k] = primaryRay(camera, int(pixels[k] % std::uint32_t(camera.width)), int(pixels[k] / std::uint32_t(camera.width)));
   });
   return rays;
 }
@@ -32,44 +46,67 @@ const glm::dvec3 kFaceNormals[6] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}
 
 }  // namespace
 
-GBuffer resolveGBuffer(const Scene& scene, const CameraFrame& camera, const std::vector<gpu::TraceRay>& rays,
-                       const std::vector<gpu::RayHit>& hits) {
-  GBuffer g;
-  g.width = camera.width;
-  g.height = camera.height;
-  g.texels.assign(hits.size(), gpu::GBufferTexel{});
-  // Per instance: the normal matrix and the voxel's world size.
-  struct InstanceFrame {
-    glm::dmat3 normalMatrix;
-    double voxelSize;
-    const std::vector<glm::vec3>* palette;
-  };
+namespace {
+
+// Per instance: the normal matrix, the voxel's world size and the palette.
+struct InstanceFrame {
+  glm::dmat3 normalMatrix;
+  double voxelSize;
+  const std::vector<glm::vec3>* palette;
+};
+
+std::vector<InstanceFrame> instanceFrames(const Scene& scene) {
   std::vector<InstanceFrame> frames;
   for (const SceneInstance& inst : scene.instances()) {
     const glm::dmat3 linear(inst.brickToWorld);
     frames.push_back({glm::transpose(glm::inverse(linear)), std::cbrt(std::abs(glm::determinant(linear))),
                       &scene.objects()[inst.object].palette});
   }
-  tbb::parallel_for(std::size_t(0), hits.size(), [&](std::size_t i) {
-    const gpu::RayHit& h = hits[i];
-    if (h.hit == 0u) return;
-    if (h.instance >= frames.size()) throwRuntime("G-buffer: a hit names instance " + std::to_string(h.instance));
-    const InstanceFrame& f = frames[h.instance];
-    const gpu::TraceRay& r = rays[i];
-    const glm::dvec3 origin = glm::dvec3(glm::vec3(r.originHigh)) + glm::dvec3(glm::vec3(r.originLow));
-    const glm::dvec3 dir(glm::vec3(r.direction));
-    const glm::dvec3 p = origin + dir * double(h.t);
-    const std::uint32_t face = std::uint32_t(h.voxel.w);
-    glm::dvec3 n = face < 6u ? glm::normalize(f.normalMatrix * kFaceNormals[face]) : -glm::normalize(dir);
-    gpu::GBufferTexel& t = g.texels[i];
-    t.position = glm::vec4(glm::vec3(p), float(glm::dot(p - camera.position, camera.forward)));
-    t.normal = glm::vec4(glm::vec3(n), float(f.voxelSize));
-    const std::vector<glm::vec3>& palette = *f.palette;
-    const glm::vec3 albedo = h.material < palette.size() ? palette[h.material] : glm::vec3(0.8f);
-    t.albedo = glm::vec4(albedo, 1.0f);
-    t.info = glm::uvec4(h.instance, h.material, face, 1u);
-  });
+  return frames;
+}
+
+gpu::GBufferTexel resolveHit(const std::vector<InstanceFrame>& frames, const CameraFrame& camera,
+                             const gpu::TraceRay& r, const gpu::RayHit& h) {
+  gpu::GBufferTexel t{};
+  if (h.hit == 0u) return t;
+  if (h.instance >= frames.size()) throwRuntime("G-buffer: a hit names instance " + std::to_string(h.instance));
+  const InstanceFrame& f = frames[h.instance];
+  const glm::dvec3 origin = glm::dvec3(glm::vec3(r.originHigh)) + glm::dvec3(glm::vec3(r.originLow));
+  const glm::dvec3 dir(glm::vec3(r.direction));
+  const glm::dvec3 p = origin + dir * double(h.t);
+  const std::uint32_t face = std::uint32_t(h.voxel.w);
+  glm::dvec3 n = face < 6u ? glm::normalize(f.normalMatrix * kFaceNormals[face]) : -glm::normalize(dir);
+  t.position = glm::vec4(glm::vec3(p), float(glm::dot(p - camera.position, camera.forward)));
+  t.normal = glm::vec4(glm::vec3(n), float(f.voxelSize));
+  const std::vector<glm::vec3>& palette = *f.palette;
+  const glm::vec3 albedo = h.material < palette.size() ? palette[h.material] : glm::vec3(0.8f);
+  t.albedo = glm::vec4(albedo, 1.0f);
+  t.info = glm::uvec4(h.instance, h.material, face, 1u);
+  return t;
+}
+
+}  // namespace
+
+GBuffer resolveGBuffer(const Scene& scene, const CameraFrame& camera, const std::vector<gpu::TraceRay>& rays,
+                       const std::vector<gpu::RayHit>& hits) {
+  GBuffer g;
+  g.width = camera.width;
+  g.height = camera.height;
+  g.texels.assign(hits.size(), gpu::GBufferTexel{});
+  const std::vector<InstanceFrame> frames = instanceFrames(scene);
+  tbb::parallel_for(std::size_t(0), hits.size(),
+                    [&](std::size_t i) { g.texels[i] = resolveHit(frames, camera, rays[i], hits[i]); });
   return g;
+}
+
+void resolveGBufferPixels(const Scene& scene, const CameraFrame& camera, std::span<const gpu::TraceRay> rays,
+                          std::span<const gpu::RayHit> hits, std::span<const std::uint32_t> pixels, GBuffer& g) {
+  if (rays.size() != pixels.size() || hits.size() != pixels.size() || g.width != camera.width ||
+      g.height != camera.height || g.texels.size() != std::size_t(camera.width) * std::size_t(camera.height))
+    throwBadInput("G-buffer: rays, hits, pixels and the G-buffer disagree on sizes");
+  const std::vector<InstanceFrame> frames = instanceFrames(scene);
+  tbb::parallel_for(std::size_t(0), pixels.size(),
+                    [&](std::size_t k) { g.texels[pixels[k]] = resolveHit(frames, camera, rays[k], hits[k]); });
 }
 
 GBuffer traceGBuffer(const Scene& scene, const CameraFrame& camera, Tracer& tracer) {
@@ -95,37 +132,107 @@ double exitDistance(const glm::dvec3& o, const glm::dvec3& d, const Aabb& box) {
 
 }  // namespace
 
+namespace {
+
+gpu::TraceRay visibilityRay(const gpu::GBufferTexel& g, const gpu::ShadeLight& light, float maxLength,
+                            const Aabb& worldBounds) {
+  const gpu::TraceRay empty = gpu::makeTraceRay(glm::dvec3(0.0), glm::dvec3(0.0, 1.0, 0.0), 1.0f, 0.0f);
+  if (g.info.w == 0u || maxLength == 0.0f) return empty;
+  const glm::dvec3 n(glm::vec3(g.normal));
+  const glm::dvec3 origin = glm::dvec3(glm::vec3(g.position)) + n * (1e-3 * double(g.normal.w));
+  glm::dvec3 toLight;
+  double length;
+  if (light.info.x == gpu::VS_LIGHT_DIRECTIONAL) {
+    toLight = -glm::normalize(glm::dvec3(glm::vec3(light.direction)));
+    length = exitDistance(origin, toLight, worldBounds);
+  } else {
+    const glm::dvec3 d = glm::dvec3(glm::vec3(light.position)) - origin;
+    length = glm::length(d);
+    if (!(length > 0.0)) return empty;
+    toLight = d / length;
+  }
+  if (!(glm::dot(n, toLight) > 0.0)) return empty;
+  if (maxLength > 0.0f) length = std::min(length, double(maxLength));
+  return gpu::makeTraceRay(origin, toLight, 0.0f, float(length));
+}
+
+}  // namespace
+
 std::vector<gpu::TraceRay> visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights,
                                           std::span<const float> maxLength, const Aabb& worldBounds) {
   const std::size_t lightCount = lights.size();
   std::vector<gpu::TraceRay> rays(gbuffer.texels.size() * lightCount);
-  const gpu::TraceRay empty = gpu::makeTraceRay(glm::dvec3(0.0), glm::dvec3(0.0, 1.0, 0.0), 1.0f, 0.0f);
   tbb::parallel_for(std::size_t(0), gbuffer.texels.size(), [&](std::size_t i) {
-    const gpu::GBufferTexel& g = gbuffer.texels[i];
-    for (std::size_t l = 0; l < lightCount; ++l) {
-      gpu::TraceRay& ray = rays[i * lightCount + l];
-      ray = empty;
-      if (g.info.w == 0u || l >= maxLength.size() || maxLength[l] == 0.0f) continue;
-      const gpu::ShadeLight& light = lights[l];
-      const glm::dvec3 n(glm::vec3(g.normal));
-      const glm::dvec3 origin = glm::dvec3(glm::vec3(g.position)) + n * (1e-3 * double(g.normal.w));
-      glm::dvec3 toLight;
-      double length;
-      if (light.info.x == gpu::VS_LIGHT_DIRECTIONAL) {
-        toLight = -glm::normalize(glm::dvec3(glm::vec3(light.direction)));
-        length = exitDistance(origin, toLight, worldBounds);
-      } else {
-        const glm::dvec3 d = glm::dvec3(glm::vec3(light.position)) - origin;
-        length = glm::length(d);
-        if (!(length > 0.0)) continue;
-        toLight = d / length;
-      }
-      if (!(glm::dot(n, toLight) > 0.0)) continue;
-      if (maxLength[l] > 0.0f) length = std::min(length, double(maxLength[l]));
-      ray = gpu::makeTraceRay(origin, toLight, 0.0f, float(length));
-    }
+    for (std::size_t l = 0; l < lightCount; ++l)
+      rays[i * lightCount + l] =
+          visibilityRay(gbuffer.texels[i], lights[l], l < maxLength.size() ? maxLength[l] : 0.0f, worldBounds);
   });
   return rays;
+}
+
+std::vector<gpu::TraceRay> visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights,
+                                          std::span<const float> maxLength, const Aabb& worldBounds,
+                                          std::span<const std::uint32_t> pixels) {
+  const std::size_t lightCount = lights.size();
+  std::vector<gpu::TraceRay> rays(pixels.size() * lightCount);
+  tbb::parallel_for(std::size_t(0), pixels.size(), [&](std::size_t k) {
+    for (std::size_t l = 0; l < lightCount; ++l)
+      rays[k * lightCount + l] = visibilityRay(gbuffer.texels[pixels[k]], lights[l],
+                                               l < maxLength.size() ? maxLength[l] : 0.0f, worldBounds);
+  });
+  return rays;
+}
+
+namespace {
+
+// Whether segment o + t d, t in [t0, t1], meets the box (double slabs).
+bool segmentMeetsBox(const glm::dvec3& o, const glm::dvec3& d, double t0, double t1, const Aabb& box) {
+  for (int a = 0; a < 3; ++a) {
+    const double lo = double(box.min[a]), hi = double(box.max[a]);
+    if (d[a] == 0.0) {
+      if (o[a] < lo || o[a] > hi) return false;
+      continue;
+    }
+    double ta = (lo - o[a]) / d[a], tb = (hi - o[a]) / d[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+void markVisibilityRaysMeeting(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights,
+                               std::span<const float> maxLength, const Aabb& worldBounds, std::span<const Aabb> boxes,
+                               std::vector<std::uint8_t>& marks) {
+  if (boxes.empty()) return;
+  // Boxes grown by a little more than float rounding of the rays' ends, so a ray grazing one is counted.
+  std::vector<Aabb> grown(boxes.begin(), boxes.end());
+  for (Aabb& b : grown) {
+    const glm::vec3 pad = (glm::abs(b.min) + glm::abs(b.max) + (b.max - b.min)) * 1e-5f + glm::vec3(1e-4f);
+    b.min -= pad;
+    b.max += pad;
+  }
+  const std::size_t lightCount = lights.size();
+  tbb::parallel_for(std::size_t(0), gbuffer.texels.size(), [&](std::size_t i) {
+    if (marks[i] || gbuffer.texels[i].info.w == 0u) return;
+    for (std::size_t l = 0; l < lightCount; ++l) {
+      const float length = l < maxLength.size() ? maxLength[l] : 0.0f;
+      if (length == 0.0f) continue;
+      const gpu::TraceRay r = visibilityRay(gbuffer.texels[i], lights[l], length, worldBounds);
+      const double tMin = double(r.originHigh.w), tMax = double(r.originLow.w);
+      if (!(tMax >= tMin)) continue;  // an empty ray: nothing it answers can change
+      const glm::dvec3 o = glm::dvec3(glm::vec3(r.originHigh)) + glm::dvec3(glm::vec3(r.originLow));
+      const glm::dvec3 d(glm::vec3(r.direction));
+      for (const Aabb& b : grown)
+        if (segmentMeetsBox(o, d, tMin, tMax, b)) {
+          marks[i] = 1;
+          return;
+        }
+    }
+  });
 }
 
 }  // namespace vs

@@ -85,7 +85,7 @@ std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& world
   std::vector<LightView> views;
   for (std::size_t li = 0; li < scene.lights.size(); ++li) {
     const LightDesc& light = scene.lights[li];
-    if (!light.shadow) continue;
+    if (!light.shadow || !light.enabled) continue;
     const int index = int(li);
     const glm::dvec3 position(light.position);
     const double range = light.range;
@@ -106,6 +106,10 @@ std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& world
             v.splitNear = splits[std::size_t(c)];
             v.splitFar = splits[std::size_t(c) + 1];
             v.texelWorld = fit.texelWorld;
+            v.gridBasis = fit.basis;
+            v.gridNear = fit.nearDist;
+            v.gridFar = fit.farDist;
+            v.windowOrigin = fit.windowOrigin;
             views.push_back(std::move(v));
           }
           break;
@@ -153,6 +157,97 @@ std::vector<LightView> buildLightViews(const SceneDesc& scene, const Aabb& world
     }
   }
   return views;
+}
+
+bool sameGrid(const LightView& a, const LightView& b) {
+  return a.lightIndex == b.lightIndex && a.cascade == b.cascade && a.resolution == b.resolution &&
+         a.encoding == b.encoding && a.depthPoint == b.depthPoint && a.texelWorld == b.texelWorld &&
+         a.gridNear == b.gridNear && a.gridFar == b.gridFar && a.gridBasis == b.gridBasis;
+}
+
+namespace {
+
+std::int64_t floorMod(std::int64_t a, std::int64_t n) { return ((a % n) + n) % n; }
+
+int pageSide(const LightView& view) { return std::min(view.resolution, kCascadePageTexels); }
+
+// The trace record of page (px, py) of a cascade grid. Its eye-relative projection is the same for every page
+// (an orthographic box of one page about the centre of its near plane), built from the grid's constants
+// alone; only the eye moves, placed in double.
+gpu::TraceView pageView(const LightView& view, std::int64_t px, std::int64_t py) {
+  const int side = pageSide(view);
+  const double tw = view.texelWorld;
+  const double half = 0.5 * double(side) * tw;
+  const double depth = view.gridFar - view.gridNear;
+  const glm::dmat4 rotation(view.gridBasis);
+  const glm::dmat4 eyeToClip = kFlipY * glm::orthoRH_ZO(-half, half, -half, half, 0.0, depth) * rotation;
+  const glm::dvec3 centre((double(px * side) + 0.5 * double(side)) * tw, -(double(py * side) + 0.5 * double(side)) * tw,
+                          -view.gridNear);
+  const glm::dvec3 eye = glm::transpose(view.gridBasis) * centre;
+  gpu::TraceView t{};
+  glm::dmat4 fromEye(1.0);
+  fromEye[3] = glm::dvec4(-eye, 1.0);
+  t.viewProj = glm::mat4(eyeToClip * fromEye);
+  t.clipToEye = glm::mat4(glm::inverse(eyeToClip));
+  glm::vec3 high, low;
+  gpu::splitToFloats(eye, high, low);
+  t.eyeHigh = glm::vec4(high, view.range);
+  t.eyeLow = glm::vec4(low, 0.0f);
+  t.rect = glm::ivec4(0, 0, side, side);
+  t.info = glm::ivec4(side, side, view.encoding, view.depthPoint);
+  return t;
+}
+
+std::int64_t floorDiv(std::int64_t a, std::int64_t n) { return a >= 0 ? a / n : -((-a + n - 1) / n); }
+
+}  // namespace
+
+glm::ivec2 ringOffset(const LightView& view) {
+  if (!isRingView(view)) return glm::ivec2(0);
+  return glm::ivec2(int(floorMod(view.windowOrigin.x, view.resolution)), int(floorMod(view.windowOrigin.y, view.resolution)));
+}
+
+TexelRect windowRect(const LightView& view) {
+  return {view.windowOrigin.x, view.windowOrigin.y, view.windowOrigin.x + view.resolution,
+          view.windowOrigin.y + view.resolution};
+}
+
+std::vector<LayerTrace> layerTraces(const LightView& view, const TexelRect& rect) {
+  const TexelRect w = windowRect(view);
+  const TexelRect r{std::max(rect.x0, w.x0), std::max(rect.y0, w.y0), std::min(rect.x1, w.x1), std::min(rect.y1, w.y1)};
+  std::vector<LayerTrace> out;
+  if (r.empty()) return out;
+  if (!isRingView(view)) {
+    LayerTrace t;
+    t.view = view.trace;
+    t.view.rect = glm::ivec4(int(r.x0), int(r.y0), int(r.x1), int(r.y1));
+    out.push_back(t);
+    return out;
+  }
+  const std::int64_t side = pageSide(view);
+  for (std::int64_t py = floorDiv(r.y0, side); py * side < r.y1; ++py)
+    for (std::int64_t px = floorDiv(r.x0, side); px * side < r.x1; ++px) {
+      LayerTrace t;
+      t.view = pageView(view, px, py);
+      const std::int64_t x0 = std::max(r.x0, px * side), x1 = std::min(r.x1, (px + 1) * side);
+      const std::int64_t y0 = std::max(r.y0, py * side), y1 = std::min(r.y1, (py + 1) * side);
+      t.view.rect = glm::ivec4(int(x0 - px * side), int(y0 - py * side), int(x1 - px * side), int(y1 - py * side));
+      // Pages tile the ring: the resolution is a multiple of the page side, so a page never wraps.
+      t.storeOrigin = glm::ivec2(int(floorMod(px * side, view.resolution)), int(floorMod(py * side, view.resolution)));
+      out.push_back(t);
+    }
+  return out;
+}
+
+std::vector<float> windowTexels(const LightView& view, std::span<const float> stored) {
+  const int n = view.resolution;
+  std::vector<float> out(std::size_t(n) * std::size_t(n));
+  const glm::ivec2 o = ringOffset(view);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x)
+      out[std::size_t(y) * std::size_t(n) + std::size_t(x)] =
+          stored[std::size_t((y + o.y) % n) * std::size_t(n) + std::size_t((x + o.x) % n)];
+  return out;
 }
 
 }  // namespace vs

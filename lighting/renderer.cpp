@@ -1,11 +1,18 @@
-// renderer.cpp: the frame: trace shadow layers, trace the G-buffer, trace visibility rays, shade.
+// renderer.cpp: the frame loop (DESIGN.md §11): learn what changed, trace the layer texels and pixels it
+// touches, shade the pixels whose inputs changed.
 #include "lighting/renderer.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <utility>
 
+#include <tbb/parallel_for.h>
+
+#include "compute/vulkan/vulkan_tracer.h"
 #include "lighting/vulkan_lighting.h"
 #include "voxel/error.h"
 #include "voxel/valid_range.h"
@@ -25,6 +32,183 @@ int shadeMode(DebugView d) {
     default: return gpu::VS_SHADE_LIT;
   }
 }
+
+bool sameCamera(const CameraFrame& a, const CameraFrame& b) {
+  return a.position == b.position && a.forward == b.forward && a.right == b.right && a.up == b.up &&
+         a.tanHalfFovY == b.tanHalfFovY && a.aspect == b.aspect && a.nearPlane == b.nearPlane &&
+         a.farPlane == b.farPlane && a.width == b.width && a.height == b.height;
+}
+
+bool sameOptions(const RenderOptions& a, const RenderOptions& b) {
+  return a.width == b.width && a.height == b.height && a.shadows == b.shadows && a.debug == b.debug &&
+         a.debugLayer == b.debugLayer;
+}
+
+TexelRect intersect(const TexelRect& a, const TexelRect& b) {
+  return {std::max(a.x0, b.x0), std::max(a.y0, b.y0), std::min(a.x1, b.x1), std::min(a.y1, b.y1)};
+}
+
+// The part of `w` that `old` does not cover, as disjoint rectangles: the strips a scrolled window exposes.
+std::vector<TexelRect> exposedStrips(const TexelRect& old, const TexelRect& w) {
+  const TexelRect kept = intersect(old, w);
+  if (kept.empty()) return {w};
+  std::vector<TexelRect> out;
+  // Columns outside the kept span, full height; then rows outside it, within the kept columns.
+  if (w.x0 < kept.x0) out.push_back({w.x0, w.y0, kept.x0, w.y1});
+  if (kept.x1 < w.x1) out.push_back({kept.x1, w.y0, w.x1, w.y1});
+  if (w.y0 < kept.y0) out.push_back({kept.x0, w.y0, kept.x1, kept.y0});
+  if (kept.y1 < w.y1) out.push_back({kept.x0, kept.y1, kept.x1, w.y1});
+  return out;
+}
+
+// Merges overlapping rectangles into their bounding rectangle until none overlap; more than kMaxRects
+// left become one. A texel traced twice would be harmless, but counted twice.
+constexpr std::size_t kMaxRects = 16;
+void mergeRects(std::vector<TexelRect>& rects) {
+  rects.erase(std::remove_if(rects.begin(), rects.end(), [](const TexelRect& r) { return r.empty(); }), rects.end());
+  bool merged = true;
+  while (merged) {
+    merged = false;
+    for (std::size_t i = 0; i < rects.size() && !merged; ++i)
+      for (std::size_t j = i + 1; j < rects.size() && !merged; ++j)
+        if (!intersect(rects[i], rects[j]).empty()) {
+          rects[i] = {std::min(rects[i].x0, rects[j].x0), std::min(rects[i].y0, rects[j].y0),
+                      std::max(rects[i].x1, rects[j].x1), std::max(rects[i].y1, rects[j].y1)};
+          rects.erase(rects.begin() + std::ptrdiff_t(j));
+          merged = true;
+        }
+  }
+  if (rects.size() > kMaxRects) {
+    TexelRect all = rects.front();
+    for (const TexelRect& r : rects)
+      all = {std::min(all.x0, r.x0), std::min(all.y0, r.y0), std::max(all.x1, r.x1), std::max(all.y1, r.y1)};
+    rects = {all};
+  }
+}
+
+// Where a world point lands in a view's texel coordinates (global texels for a ring view), in double; false
+// behind a perspective view's eye.
+bool texelOf(const LightView& v, const glm::dvec3& p, glm::dvec2& texel) {
+  if (isRingView(v)) {
+    const glm::dvec3 l = v.gridBasis * p;
+    texel = glm::dvec2(l.x / v.texelWorld, -l.y / v.texelWorld);
+    return true;
+  }
+  const glm::dvec4 clip = v.eyeToClip * glm::dvec4(p - v.eye, 1.0);
+  if (!(clip.w > 0.0)) return false;
+  texel = (glm::dvec2(clip) / clip.w * 0.5 + 0.5) * double(v.resolution);
+  return true;
+}
+
+// The texels of view v whose rays may pass through world box `box`: the box's corners projected (convex, so
+// their hull holds the box's footprint), rounded outward by a texel; the whole window where the box reaches
+// behind a perspective view's eye.
+TexelRect footprint(const LightView& v, const Aabb& box, double margin) {
+  glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  auto corner = [&](int c) {
+    return glm::dvec3((c & 1) ? box.max.x : box.min.x, (c & 2) ? box.max.y : box.min.y, (c & 4) ? box.max.z : box.min.z);
+  };
+  if (isRingView(v)) {
+    for (int c = 0; c < 8; ++c) {
+      glm::dvec2 t;
+      texelOf(v, corner(c), t);
+      lo = glm::min(lo, t);
+      hi = glm::max(hi, t);
+    }
+  } else {
+    // A perspective view sees only the part of the box in front of its eye: the box clipped at a plane just
+    // in front of it (its corners there, and where its edges cross the plane), projected.
+    glm::dvec4 clip[8];
+    double reach = 0.0;
+    for (int c = 0; c < 8; ++c) {
+      clip[c] = v.eyeToClip * glm::dvec4(corner(c) - v.eye, 1.0);
+      reach = std::max(reach, std::abs(clip[c].w));
+    }
+    const double front = 1e-9 * std::max(reach, 1e-30);
+    std::vector<glm::dvec4> points;
+    for (int c = 0; c < 8; ++c)
+      if (clip[c].w > front) points.push_back(clip[c]);
+    if (points.empty()) return {};
+    for (int a = 0; a < 8; ++a)
+      for (int bit = 1; bit < 8; bit <<= 1) {
+        const int b = a | bit;
+        if (b == a || ((clip[a].w > front) == (clip[b].w > front))) continue;
+        const double s = (front - clip[a].w) / (clip[b].w - clip[a].w);
+        points.push_back(clip[a] + (clip[b] - clip[a]) * s);
+      }
+    for (const glm::dvec4& p : points) {
+      const glm::dvec2 t = (glm::dvec2(p) / std::max(p.w, front) * 0.5 + 0.5) * double(v.resolution);
+      lo = glm::min(lo, t);
+      hi = glm::max(hi, t);
+    }
+  }
+  const double limit = 4.0e18;  // far beyond any window: clamps a corner projected near the eye's plane
+  lo = glm::clamp(glm::floor(lo) - margin, -limit, limit);
+  hi = glm::clamp(glm::floor(hi) + 1.0 + margin, -limit, limit);
+  return intersect({std::int64_t(lo.x), std::int64_t(lo.y), std::int64_t(hi.x), std::int64_t(hi.y)}, windowRect(v));
+}
+
+// The pixels whose primary rays may pass through world box `box`, rounded outward by a pixel; the whole image
+// where the box reaches to or behind the camera's near plane.
+void markBoxPixels(const CameraFrame& camera, const Aabb& box, std::vector<std::uint8_t>& marks) {
+  glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  bool whole = false;
+  for (int c = 0; c < 8 && !whole; ++c) {
+    const glm::dvec3 p((c & 1) ? box.max.x : box.min.x, (c & 2) ? box.max.y : box.min.y, (c & 4) ? box.max.z : box.min.z);
+    const glm::dvec3 d = p - camera.position;
+    const double z = glm::dot(d, camera.forward);
+    if (!(z > 0.5 * camera.nearPlane)) {
+      whole = true;
+      break;
+    }
+    const double sx = glm::dot(d, camera.right) / z / (camera.tanHalfFovY * camera.aspect);
+    const double sy = glm::dot(d, camera.up) / z / camera.tanHalfFovY;
+    const glm::dvec2 px((sx + 1.0) * 0.5 * camera.width - 0.5, (1.0 - sy) * 0.5 * camera.height - 0.5);
+    lo = glm::min(lo, px);
+    hi = glm::max(hi, px);
+  }
+  int x0 = 0, y0 = 0, x1 = camera.width, y1 = camera.height;
+  if (!whole) {
+    x0 = int(std::clamp(std::floor(lo.x) - 1.0, 0.0, double(camera.width)));
+    y0 = int(std::clamp(std::floor(lo.y) - 1.0, 0.0, double(camera.height)));
+    x1 = int(std::clamp(std::ceil(hi.x) + 2.0, 0.0, double(camera.width)));
+    y1 = int(std::clamp(std::ceil(hi.y) + 2.0, 0.0, double(camera.height)));
+  }
+  for (int y = y0; y < y1; ++y)
+    std::fill(marks.begin() + std::ptrdiff_t(y) * camera.width + x0, marks.begin() + std::ptrdiff_t(y) * camera.width + x1,
+              std::uint8_t(1));
+}
+
+std::vector<std::uint32_t> markedPixels(const std::vector<std::uint8_t>& marks) {
+  std::vector<std::uint32_t> out;
+  for (std::size_t i = 0; i < marks.size(); ++i)
+    if (marks[i]) out.push_back(std::uint32_t(i));
+  return out;
+}
+
+// How far (texels) from where a receiver projects its shadow lookups read: the filter's reach, the normal
+// bias (which moves the receiver along its normal by that many texels) and a texel for rounding.
+double lookupReach(const LightDesc& light) {
+  if (!light.shadow) return 0.0;
+  double reach = 1.0;
+  switch (light.shadow->filter) {
+    case ShadowFilter::Hard: reach = 0.5; break;
+    case ShadowFilter::Pcf3: reach = 1.5; break;
+    case ShadowFilter::Pcf5: reach = 2.5; break;
+    case ShadowFilter::Poisson16: reach = double(gpu::VS_POISSON_RADIUS) + 0.5; break;
+    case ShadowFilter::Pcss: reach = double(gpu::VS_PCSS_MAX_RADIUS) + 0.5; break;
+  }
+  // The depth and slope biases move the receiver along the light, which is along a texel's own ray: they
+  // change no view's lateral position.
+  return reach + std::abs(double(light.shadow->normalBias)) + 2.0;
+}
+
+// A view's identity across frames: its light (by id, which survives other lights' removal) and its name.
+struct ViewKey {
+  std::uint64_t light = 0;
+  std::string name;
+  bool operator==(const ViewKey&) const = default;
+};
 
 }  // namespace
 
@@ -50,114 +234,436 @@ void checkRenderOptions(const RenderOptions& options) {
     throwBadInput("RenderOptions.debugLayer: must be 0 or more, not " + std::to_string(options.debugLayer));
 }
 
-struct FrameRenderer::VulkanPass {
-  explicit VulkanPass(VulkanContext& context) : lighting(context) {}
-  VulkanLighting lighting;
-};
-
-FrameRenderer::FrameRenderer(Tracer& tracer) : tracer_(tracer) {}
-FrameRenderer::~FrameRenderer() = default;
-
-int FrameRenderer::traceChangedLayers(const std::vector<LightView>& views) {
-  // A layer holds while the bound scene and its view's record (matrices, eye, size, encoding, depth point:
-  // everything its rays and texel values are made from) stay the same, bit for bit.
-  const bool sameScene = tracer_.sceneVersion() == tracedVersion_;
-  std::vector<std::size_t> changed;
-  for (std::size_t i = 0; i < views.size(); ++i)
-    if (!sameScene || i >= tracedViews_.size() ||
-        std::memcmp(&views[i].trace, &tracedViews_[i], sizeof(gpu::TraceView)) != 0)
-      changed.push_back(i);
-  layers_.resize(views.size());
-  tracedViews_.resize(views.size());
-  if (changed.empty()) return 0;
-  // The changed layers are traced as one batch (one submission on Vulkan); moving them in and out copies no
-  // texels.
+void traceLayers(Tracer& tracer, std::span<const LightView> views, std::vector<ShadowLayer>& layers) {
+  layers.resize(views.size());
   std::vector<gpu::TraceView> batch;
-  std::vector<ShadowLayer> batchLayers;
-  for (std::size_t i : changed) {
-    batch.push_back(views[i].trace);
-    batchLayers.push_back(std::move(layers_[i]));
+  std::vector<std::pair<std::size_t, glm::ivec2>> targets;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    layers[i].width = layers[i].height = views[i].resolution;
+    layers[i].texels.assign(std::size_t(views[i].resolution) * std::size_t(views[i].resolution), 0.0f);
+    for (const LayerTrace& t : layerTraces(views[i], windowRect(views[i]))) {
+      batch.push_back(t.view);
+      targets.push_back({i, t.storeOrigin});
+    }
   }
-  try {
-    tracer_.traceShadow(batch, batchLayers);
-  } catch (...) {
-    // Some layers were moved out: none is known to hold any more.
-    layers_.clear();
-    tracedViews_.clear();
-    throw;
+  std::vector<ShadowLayer> pieces;
+  tracer.traceShadow(batch, pieces);
+  for (std::size_t k = 0; k < batch.size(); ++k) {
+    const glm::ivec4 r = batch[k].rect;
+    ShadowLayer& layer = layers[targets[k].first];
+    for (int y = r.y; y < r.w; ++y)
+      std::memcpy(&layer.texels[std::size_t(targets[k].second.y + y) * std::size_t(layer.width) +
+                                std::size_t(targets[k].second.x + r.x)],
+                  &pieces[k].texels[std::size_t(y) * std::size_t(pieces[k].width) + std::size_t(r.x)],
+                  std::size_t(r.z - r.x) * sizeof(float));
   }
-  for (std::size_t k = 0; k < changed.size(); ++k) layers_[changed[k]] = std::move(batchLayers[k]);
-  for (std::size_t i = 0; i < views.size(); ++i) tracedViews_[i] = views[i].trace;
-  tracedVersion_ = tracer_.sceneVersion();
-  return int(changed.size());
 }
 
-RenderedFrame FrameRenderer::render(const Scene& scene, const RenderOptions& options) {
-  const SceneDesc& desc = scene.desc();
+struct FrameRenderer::State {
+  // The binding: which scene's arrays the tracer holds, and the revision the kept frame shows.
+  std::shared_ptr<const SceneData> data;
+  std::uint64_t sceneId = 0, revision = 0;
+  bool valid = false;  // a complete frame is kept
+
+  CameraFrame camera;
+  RenderOptions options;
+  // The layer store: the views of the last frame with shadow maps, each layer's first texel, every texel
+  // (cascades in ring order). A frame without maps leaves it for the next one that has them.
+  std::vector<ViewKey> keys;
+  std::vector<LightView> storeViews;
+  std::vector<int> storeOffsets;
+  std::vector<float> storeTexels;
+  std::vector<std::uint64_t> lightIds; // per light of the kept frame
+  std::vector<float> rayLength;        // per light of the kept frame
+  std::vector<std::uint32_t> visible;  // per pixel and light: 1 clear (empty: no light needs rays)
+  RenderedFrame frame;
+  std::vector<ShadowLayer> scratch;    // trace pieces, reused
+  gpu::ShadePush push{};
+  Aabb bounds;  // the world's bounds at the kept frame
+
+  std::shared_ptr<VulkanContext> context;  // keeps the device of the lighting pass alive
+  std::unique_ptr<VulkanLighting> lighting;
+  // The Vulkan pass's buffers hold the kept frame's lighting inputs, except the store's texel ranges in
+  // `pendingTexels` (traced by frames that shaded no pixel); false when they may hold anything else.
+  bool lightingHeld = false;
+  std::vector<std::pair<std::size_t, std::size_t>> pendingTexels;
+};
+
+FrameRenderer::FrameRenderer(Tracer& tracer)
+    : tracer_(tracer), tracerAlive_(tracer.liveness()), state_(std::make_unique<State>()) {}
+
+FrameRenderer::~FrameRenderer() = default;
+
+std::vector<ShadowLayer> FrameRenderer::layers() const {
+  std::vector<ShadowLayer> out;
+  const State& s = *state_;
+  for (std::size_t i = 0; i < s.storeViews.size(); ++i) {
+    const int n = s.storeViews[i].resolution;
+    ShadowLayer layer;
+    layer.width = layer.height = n;
+    const auto first = s.storeTexels.begin() + s.storeOffsets[i];
+    layer.texels.assign(first, first + std::ptrdiff_t(n) * n);
+    out.push_back(std::move(layer));
+  }
+  return out;
+}
+
+const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptions& options) {
+  if (tracerAlive_.expired())
+    throwRuntime("FrameRenderer::render: the renderer's tracer was destroyed; make the renderer on a live tracer");
   checkRenderOptions(options);
+  const SceneDesc& desc = scene.desc();
   if (!desc.camera) throwBadInput(desc.file.string() + ": camera: a scene needs a camera to be rendered");
   const CameraFrame camera = cameraFrame(*desc.camera, options.width, options.height);
   const bool raytraced = options.shadows == ShadowSource::Raytraced;
-
-  RenderedFrame frame;
-  frame.width = camera.width;
-  frame.height = camera.height;
-  for (const LightDesc& l : desc.lights) frame.lightNames.push_back(l.name);
-
-  // Shadow layers: ray-traced shadows need none (the layer debug view still does).
-  auto t0 = Clock::now();
   const bool needMaps = !raytraced || options.debug == DebugView::Layer;
-  frame.views = needMaps ? buildLightViews(desc, scene.worldBounds(), &camera) : std::vector<LightView>{};
-  if (options.debug == DebugView::Layer && (options.debugLayer < 0 || std::size_t(options.debugLayer) >= frame.views.size()))
+  State& s = *state_;
+  VulkanTracer* vulkan = tracer_.vulkan();
+
+  // The views first: a bad debug layer is refused before anything changes.
+  std::vector<LightView> views = needMaps ? buildLightViews(desc, scene.worldBounds(), &camera) : std::vector<LightView>{};
+  if (options.debug == DebugView::Layer && std::size_t(options.debugLayer) >= views.size())
     throwBadInput("--debug layer=" + std::to_string(options.debugLayer) + ": the scene has " +
-                  std::to_string(frame.views.size()) + " shadow layers (0.." +
-                  std::to_string(int(frame.views.size()) - 1) + ")");
-  // A frame without maps leaves the layers as they are, for the next frame that has them.
-  if (needMaps) frame.layersTraced = traceChangedLayers(frame.views);
-  frame.timings.shadowMs = msSince(t0);
+                  std::to_string(views.size()) + " shadow layers (0.." + std::to_string(int(views.size()) - 1) + ")");
 
-  t0 = Clock::now();
-  frame.gbuffer = traceGBuffer(scene, camera, tracer_);
-  frame.timings.gbufferMs = msSince(t0);
-
-  const ShadeInputs inputs =
-      makeShadeInputs(desc, frame.views, needMaps ? std::span<const ShadowLayer>(layers_) : std::span<const ShadowLayer>(),
-                      raytraced);
-  t0 = Clock::now();
-  std::vector<std::uint32_t> visible;
-  if (std::any_of(inputs.rayLength.begin(), inputs.rayLength.end(), [](float l) { return l != 0.0f; })) {
-    std::vector<gpu::TraceRay> rays = visibilityRays(frame.gbuffer, inputs.lights, inputs.rayLength, scene.worldBounds());
-    visible.resize(rays.size());
-    tracer_.traceAny(rays, visible);
-    for (std::uint32_t& v : visible) v = v == 0u ? 1u : 0u;
+  // 1. What changed in the scene since the kept frame, and the tracer's copy brought up to date.
+  auto t0 = Clock::now();
+  FrameStats stats;
+  std::vector<const SceneChange*> changes;
+  const std::uint64_t uploadedBefore = tracer_.bytesUploaded();
+  bool full = forceFull_ || !s.valid || s.sceneId != scene.id() || s.data != scene.sharedData() ||
+              tracer_.boundScene() != scene.sharedData() || !scene.changesSince(s.revision, changes);
+  std::vector<Aabb> boxes;
+  std::vector<std::uint64_t> changedLights;
+  bool shadingChanged = false;
+  // Invalid until this frame completes: an exception below leaves nothing half-kept, and the next frame
+  // redoes everything.
+  s.valid = false;
+  const bool lightingHeld = s.lightingHeld;
+  s.lightingHeld = false;
+  if (full) {
+    s.data = scene.sharedData();
+    tracer_.setScene(s.data);
+  } else if (!changes.empty()) {
+    SceneDelta delta;
+    for (const SceneChange* c : changes) {
+      boxes.insert(boxes.end(), c->boxes.begin(), c->boxes.end());
+      changedLights.insert(changedLights.end(), c->lights.begin(), c->lights.end());
+      shadingChanged = shadingChanged || c->shading;
+      delta.merge(c->arrays);
+    }
+    if (!delta.ranges.empty() || !delta.editedBricks.empty() || delta.voxelLayout || delta.instances)
+      tracer_.sceneChanged(scene.data(), delta);
   }
-  frame.timings.visibilityMs = msSince(t0);
+  s.sceneId = scene.id();
+  s.revision = scene.revision();
+  stats.full = full;
+  stats.dirtyBoxes = boxes.size();
+  RenderTimings timings;
+  timings.sceneMs = msSince(t0);
 
+  // 2. Shadow layers: per view, what must be traced.
   t0 = Clock::now();
-  const gpu::ShadePush push = makeShadePush(desc, camera.width, camera.height, shadeMode(options.debug), raytraced);
-  ShadeOutput shaded;
-  if (VulkanTracer* vulkan = tracer_.vulkan()) {
-    if (!vulkan_) vulkan_ = std::make_unique<VulkanPass>(vulkan->context());
-    shaded = vulkan_->lighting.shade(inputs, push, frame.gbuffer, visible);
+  std::vector<ViewKey> keys;
+  for (const LightView& v : views) keys.push_back({scene.lightId(std::size_t(v.lightIndex)), v.name});
+  std::vector<std::uint64_t> lightIds;
+  for (std::size_t l = 0; l < desc.lights.size(); ++l) lightIds.push_back(scene.lightId(l));
+  // Where each view's layer was kept (-1: new).
+  std::vector<int> kept(views.size(), -1);
+  // A frame without maps cannot keep the store up to date: a change then leaves nothing of it to keep.
+  if (!needMaps && (full || !boxes.empty() || !changedLights.empty())) s.keys.clear();
+  if (!full)
+    for (std::size_t i = 0; i < views.size(); ++i)
+      for (std::size_t k = 0; k < s.keys.size(); ++k)
+        if (s.keys[k] == keys[i]) kept[i] = int(k);
+  // The records and the texel store of this frame's views; kept layers are copied over when the layout moved.
+  ShadeInputs inputs = makeShadeRecords(desc, views, raytraced);
+  const std::size_t storeTexels = shadeStoreTexels(views);
+  bool sameLayout = !full && keys == s.keys && storeTexels == s.storeTexels.size();
+  if (sameLayout)
+    for (std::size_t i = 0; i < views.size(); ++i)
+      sameLayout = sameLayout && inputs.views[i].info.x == s.storeOffsets[std::size_t(kept[i])];
+  if (sameLayout) {
+    inputs.shadowTexels.swap(s.storeTexels);
   } else {
-    shaded = shadeOnCpu(inputs, push, frame.gbuffer, visible);
-  }
-  frame.color = std::move(shaded.color);
-  frame.shadowTerms = std::move(shaded.shadowTerms);
-  frame.timings.lightingMs = msSince(t0);
-
-  if (options.debug == DebugView::Layer) {
-    // The layer itself, scaled to the frame: depth as grey (near dark), misses white.
-    const LightView& v = frame.views[std::size_t(options.debugLayer)];
-    const ShadowLayer& layer = layers_[std::size_t(options.debugLayer)];
-    for (int y = 0; y < frame.height; ++y)
-      for (int x = 0; x < frame.width; ++x) {
-        const int lx = std::min(layer.width - 1, x * layer.width / frame.width);
-        const int ly = std::min(layer.height - 1, y * layer.height / frame.height);
-        const float d = layer.texels[std::size_t(ly) * std::size_t(layer.width) + std::size_t(lx)] / v.range;
-        frame.color[std::size_t(y) * std::size_t(frame.width) + std::size_t(x)] = glm::vec4(glm::vec3(d), 1.0f);
+    inputs.shadowTexels.resize(storeTexels);
+    for (std::size_t i = 0; i < views.size(); ++i)
+      if (kept[i] >= 0 && views[i].resolution == s.storeViews[std::size_t(kept[i])].resolution) {
+        const std::size_t n = std::size_t(views[i].resolution) * std::size_t(views[i].resolution);
+        std::copy_n(s.storeTexels.begin() + s.storeOffsets[std::size_t(kept[i])], n,
+                    inputs.shadowTexels.begin() + inputs.views[i].info.x);
+      } else {
+        kept[i] = -1;
       }
   }
+  std::vector<std::vector<TexelRect>> rects(views.size());
+  stats.layers.resize(views.size());
+  bool anyWhole = false;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    const LightView& v = views[i];
+    LayerTraceStats& ls = stats.layers[i];
+    ls.view = v.name;
+    stats.layerTexels += std::uint64_t(v.resolution) * std::uint64_t(v.resolution);
+    bool whole = kept[i] < 0;
+    if (!whole) {
+      const LightView& old = s.storeViews[std::size_t(kept[i])];
+      if (std::find(changedLights.begin(), changedLights.end(), keys[i].light) != changedLights.end()) whole = true;
+      else if (isRingView(v)) whole = !sameGrid(v, old);
+      else whole = std::memcmp(&v.trace, &old.trace, sizeof(gpu::TraceView)) != 0;
+      if (!whole && isRingView(v)) rects[i] = exposedStrips(windowRect(old), windowRect(v));
+    }
+    if (whole) {
+      rects[i] = {windowRect(v)};
+      anyWhole = true;
+    } else {
+      for (const Aabb& b : boxes) rects[i].push_back(footprint(v, b, footprintMargin_));
+      mergeRects(rects[i]);
+    }
+    ls.whole = whole;
+  }
+  // One batch for every piece; each piece lands in its layer's store at its place.
+  std::vector<gpu::TraceView> batch;
+  std::vector<std::pair<std::size_t, glm::ivec2>> targets;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    for (const TexelRect& r : rects[i]) {
+      for (const LayerTrace& t : layerTraces(views[i], r)) {
+        batch.push_back(t.view);
+        targets.push_back({i, t.storeOrigin});
+        const std::uint64_t n = std::uint64_t(t.view.rect.z - t.view.rect.x) * std::uint64_t(t.view.rect.w - t.view.rect.y);
+        stats.layers[i].texels += n;
+      }
+      ++stats.layers[i].rectangles;
+    }
+  }
+  // The store's rows this frame writes, for a lighting pass that keeps the store in place.
+  std::vector<std::pair<std::size_t, std::size_t>> tracedTexels;
+  if (!batch.empty()) {
+    const TraceStats ts = tracer_.traceShadow(batch, s.scratch);
+    stats.dispatches += vulkan ? ts.dispatches : 1;
+    for (std::size_t k = 0; k < batch.size(); ++k) {
+      const glm::ivec4 r = batch[k].rect;
+      const int n = views[targets[k].first].resolution;
+      const std::size_t layerStart = std::size_t(inputs.views[targets[k].first].info.x);
+      float* layer = inputs.shadowTexels.data() + layerStart;
+      const ShadowLayer& piece = s.scratch[k];
+      for (int y = r.y; y < r.w; ++y) {
+        const std::size_t at =
+            std::size_t(targets[k].second.y + y) * std::size_t(n) + std::size_t(targets[k].second.x + r.x);
+        std::memcpy(layer + at, &piece.texels[std::size_t(y) * std::size_t(piece.width) + std::size_t(r.x)],
+                    std::size_t(r.z - r.x) * sizeof(float));
+        if (vulkan) tracedTexels.push_back({layerStart + at, std::size_t(r.z - r.x)});
+      }
+    }
+    if (vulkan) {
+      stats.bytesUploaded += batch.size() * sizeof(gpu::TraceView);
+    }
+  }
+  for (const LayerTraceStats& ls : stats.layers) {
+    stats.texelsTraced += ls.texels;
+    if (ls.texels > 0) ++stats.layersTraced;
+  }
+  if (vulkan) stats.bytesReadBack += stats.texelsTraced * sizeof(float);
+  timings.shadowMs = msSince(t0);
+
+  // 3. The G-buffer: every pixel when the camera or the frame changed, else the pixels whose primary rays
+  // may pass through a changed box.
+  t0 = Clock::now();
+  RenderedFrame& frame = s.frame;
+  const std::size_t pixelCount = std::size_t(camera.width) * std::size_t(camera.height);
+  // Rays that reach past the scene are cut where it ends (vsSceneEndT), and the cut sets the pads their walks
+  // are re-based with: when the world's bounds move, every primary ray's hit may change in its last bits.
+  const Aabb& bounds = scene.worldBounds();
+  const bool boundsMoved = bounds.min != s.bounds.min || bounds.max != s.bounds.max;
+  const bool allPixels = full || boundsMoved || !sameCamera(camera, s.camera) || !sameOptions(options, s.options);
+  std::vector<std::uint8_t> marks(pixelCount, allPixels ? 1 : 0);
+  if (allPixels) {
+    const std::vector<gpu::TraceRay> rays = primaryRays(camera);
+    std::vector<gpu::RayHit> hits(rays.size());
+    const TraceStats ts = tracer_.traceClosest(rays, hits);
+    stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
+    frame.gbuffer = resolveGBuffer(scene, camera, rays, hits);
+    stats.primaryRays = rays.size();
+  } else if (!boxes.empty()) {
+    for (const Aabb& b : boxes) markBoxPixels(camera, b, marks);
+    const std::vector<std::uint32_t> pixels = markedPixels(marks);
+    if (!pixels.empty()) {
+      const std::vector<gpu::TraceRay> rays = primaryRays(camera, pixels);
+      std::vector<gpu::RayHit> hits(rays.size());
+      const TraceStats ts = tracer_.traceClosest(rays, hits);
+      stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
+      resolveGBufferPixels(scene, camera, rays, hits, pixels, frame.gbuffer);
+      stats.primaryRays = rays.size();
+    }
+  }
+  if (vulkan) {
+    stats.bytesUploaded += stats.primaryRays * sizeof(gpu::TraceRay);
+    stats.bytesReadBack += stats.primaryRays * sizeof(gpu::RayHit);
+  }
+  timings.gbufferMs = msSince(t0);
+
+  // 4. Visibility rays: every pixel's when the lights' rays or the G-buffer changed whole, else the marked
+  // pixels' and those whose rays meet a changed box.
+  t0 = Clock::now();
+  const std::size_t lightCount = desc.lights.size();
+  const bool needRays = std::any_of(inputs.rayLength.begin(), inputs.rayLength.end(), [](float l) { return l != 0.0f; });
+  const bool raysChanged = lightIds != s.lightIds || inputs.rayLength != s.rayLength || !changedLights.empty() ||
+                           s.visible.size() != pixelCount * lightCount;
+  std::vector<std::uint32_t> visible;
+  if (needRays) {
+    if (allPixels || raysChanged) {
+      std::vector<gpu::TraceRay> rays = visibilityRays(frame.gbuffer, inputs.lights, inputs.rayLength, scene.worldBounds());
+      visible.resize(rays.size());
+      const TraceStats ts = tracer_.traceAny(rays, visible);
+      stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
+      for (std::uint32_t& v : visible) v = v == 0u ? 1u : 0u;
+      stats.visibilityRays = rays.size();
+      std::fill(marks.begin(), marks.end(), std::uint8_t(1));
+    } else {
+      visible.swap(s.visible);
+      markVisibilityRaysMeeting(frame.gbuffer, inputs.lights, inputs.rayLength, scene.worldBounds(), boxes, marks);
+      const std::vector<std::uint32_t> pixels = markedPixels(marks);
+      if (!pixels.empty()) {
+        std::vector<gpu::TraceRay> rays =
+            visibilityRays(frame.gbuffer, inputs.lights, inputs.rayLength, scene.worldBounds(), pixels);
+        std::vector<std::uint32_t> answers(rays.size());
+        const TraceStats ts = tracer_.traceAny(rays, answers);
+        stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
+        for (std::size_t k = 0; k < pixels.size(); ++k)
+          for (std::size_t l = 0; l < lightCount; ++l)
+            visible[std::size_t(pixels[k]) * lightCount + l] = answers[k * lightCount + l] == 0u ? 1u : 0u;
+        stats.visibilityRays = rays.size();
+      }
+    }
+  }
+  if (vulkan) {
+    stats.bytesUploaded += stats.visibilityRays * sizeof(gpu::TraceRay);
+    stats.bytesReadBack += stats.visibilityRays * sizeof(std::uint32_t);
+  }
+  timings.visibilityMs = msSince(t0);
+
+  // 5. Lighting: every pixel when any input changed whole, else the marked ones and those whose shadow
+  // lookups read a traced texel.
+  t0 = Clock::now();
+  const gpu::ShadePush push = makeShadePush(desc, camera.width, camera.height, shadeMode(options.debug), raytraced);
+  const bool shadeAll = allPixels || anyWhole || shadingChanged || lightIds != s.lightIds ||
+                        frame.color.size() != pixelCount || std::memcmp(&push, &s.push, sizeof push) != 0;
+  if (!shadeAll && stats.texelsTraced > 0 && !raytraced) {
+    // Per light, the views it traced in and the traced rectangles grown by its lookups' reach.
+    for (std::size_t l = 0; l < lightCount; ++l) {
+      std::vector<std::pair<std::size_t, TexelRect>> touched;
+      const double reach = lookupReach(desc.lights[l]);
+      for (std::size_t i = 0; i < views.size(); ++i) {
+        if (std::size_t(views[i].lightIndex) != l) continue;
+        for (const TexelRect& r : rects[i]) {
+          const std::int64_t m = std::int64_t(std::ceil(reach));
+          touched.push_back({i, {r.x0 - m, r.y0 - m, r.x1 + m, r.y1 + m}});
+        }
+      }
+      if (touched.empty()) continue;
+      tbb::parallel_for(std::size_t(0), pixelCount, [&](std::size_t px) {
+        const gpu::GBufferTexel& g = frame.gbuffer.texels[px];
+        if (marks[px] || g.info.w == 0u) return;
+        const glm::dvec3 p(glm::vec3(g.position));
+        for (const auto& [i, r] : touched) {
+          glm::dvec2 t;
+          if (!texelOf(views[i], p, t)) continue;
+          // Lookups outside the window read its edge (vsStoredDepth clamps).
+          const TexelRect w = windowRect(views[i]);
+          t = glm::clamp(t, glm::dvec2(double(w.x0), double(w.y0)), glm::dvec2(double(w.x1) - 0.5, double(w.y1) - 0.5));
+          if (t.x >= double(r.x0) && t.x < double(r.x1) && t.y >= double(r.y0) && t.y < double(r.y1)) {
+            marks[px] = 1;
+            return;
+          }
+        }
+      });
+    }
+  }
+  ShadeOutput shaded;
+  shaded.color.swap(frame.color);
+  shaded.shadowTerms.swap(frame.shadowTerms);
+  std::vector<std::uint32_t> pixels;
+  if (!shadeAll) pixels = markedPixels(marks);
+  if (vulkan) {
+    if (shadeAll || !pixels.empty()) {
+      if (!s.lighting) {
+        s.context = vulkan->sharedContext();
+        s.lighting = std::make_unique<VulkanLighting>(s.context);
+      }
+      LightingTraffic traffic;
+      // The pass keeps its inputs in place: a frame that moved nothing whole writes only what it changed (its
+      // traced rows and those of frames that shaded nothing, its marked pixels) and reads back its marked pixels.
+      if (shadeAll || !lightingHeld || !sameLayout) {
+        shaded = s.lighting->shade(inputs, push, frame.gbuffer, visible, &traffic);
+      } else {
+        s.pendingTexels.insert(s.pendingTexels.end(), tracedTexels.begin(), tracedTexels.end());
+        s.lighting->shadeChanged(inputs, push, frame.gbuffer, visible, {s.pendingTexels, pixels}, shaded, &traffic);
+      }
+      s.pendingTexels.clear();
+      s.lightingHeld = true;
+      stats.pixelsShaded = pixelCount;
+      stats.dispatches += 1;
+      stats.bytesUploaded += traffic.uploaded;
+      stats.bytesReadBack += traffic.readBack;
+    } else if (lightingHeld && sameLayout) {
+      // Nothing to shade: the pass's buffers still hold this frame's inputs but for the rows traced now.
+      s.pendingTexels.insert(s.pendingTexels.end(), tracedTexels.begin(), tracedTexels.end());
+      s.lightingHeld = s.pendingTexels.size() < inputs.shadowTexels.size() / 16;
+      if (!s.lightingHeld) s.pendingTexels.clear();
+    }
+  } else if (shadeAll) {
+    shaded = shadeOnCpu(inputs, push, frame.gbuffer, visible);
+    stats.pixelsShaded = pixelCount;
+    stats.dispatches += 1;
+  } else if (!pixels.empty()) {
+    shadeOnCpu(inputs, push, frame.gbuffer, visible, pixels, shaded);
+    stats.pixelsShaded = pixels.size();
+    stats.dispatches += 1;
+  }
+  frame.color.swap(shaded.color);
+  frame.shadowTerms.swap(shaded.shadowTerms);
+  timings.lightingMs = msSince(t0);
+
+  if (options.debug == DebugView::Layer) {
+    // The layer itself, in window order, scaled to the frame: depth as grey (near dark), misses white.
+    const std::size_t li = std::size_t(options.debugLayer);
+    const LightView& v = views[li];
+    const std::vector<float> texels = windowTexels(
+        v, std::span<const float>(inputs.shadowTexels).subspan(std::size_t(inputs.views[li].info.x),
+                                                                std::size_t(v.resolution) * std::size_t(v.resolution)));
+    for (int y = 0; y < camera.height; ++y)
+      for (int x = 0; x < camera.width; ++x) {
+        const int lx = std::min(v.resolution - 1, x * v.resolution / camera.width);
+        const int ly = std::min(v.resolution - 1, y * v.resolution / camera.height);
+        const float d = texels[std::size_t(ly) * std::size_t(v.resolution) + std::size_t(lx)] / v.range;
+        frame.color[std::size_t(y) * std::size_t(camera.width) + std::size_t(x)] = glm::vec4(glm::vec3(d), 1.0f);
+      }
+  }
+
+  stats.bytesUploaded += tracer_.bytesUploaded() - uploadedBefore;
+  frame.width = camera.width;
+  frame.height = camera.height;
+  frame.lightNames.clear();
+  for (const LightDesc& l : desc.lights) frame.lightNames.push_back(l.name);
+  frame.views = std::move(views);
+  frame.layersTraced = stats.layersTraced;
+  frame.timings = timings;
+  frame.stats = std::move(stats);
+  s.camera = camera;
+  s.options = options;
+  if (needMaps) {
+    s.keys = std::move(keys);
+    s.storeViews = frame.views;
+    s.storeOffsets.clear();
+    for (const gpu::ShadeView& v : inputs.views) s.storeOffsets.push_back(v.info.x);
+    s.storeTexels.swap(inputs.shadowTexels);
+  }
+  s.lightIds = std::move(lightIds);
+  s.rayLength = inputs.rayLength;
+  s.visible = std::move(visible);
+  s.push = push;
+  s.bounds = bounds;
+  s.valid = true;
+  forceFull_ = false;
   return frame;
 }
 

@@ -1,10 +1,13 @@
-// renderer.h: one lit frame of a scene (DESIGN.md §7): shadow layers, G-buffer, visibility rays and the
-// deferred lighting pass, on either backend. A FrameRenderer lives across frames: it keeps the layers and
-// buffers of the last frame, and traces a layer again only when its view or the bound scene changed.
+// renderer.h: one lit frame of a scene (DESIGN.md §7, §11): shadow layers, G-buffer, visibility rays and the
+// deferred lighting pass, on either backend. A FrameRenderer lives across frames: it keeps the layers, the
+// G-buffer, the visibility answers and the lit image of the last frame, and redoes only what the scene's
+// changes and the camera touched.
 #ifndef VOXSHADOW_RENDERER_H
 #define VOXSHADOW_RENDERER_H
 
+#include <cstdint>
 #include <memory>
+#include <span>
 #include <optional>
 #include <string>
 #include <vector>
@@ -32,10 +35,37 @@ struct RenderOptions {
 void checkRenderOptions(const RenderOptions& options);
 
 struct RenderTimings {
+  double sceneMs = 0.0;       // learning the scene's changes and updating the tracer's copy
   double shadowMs = 0.0;      // shadow layers
   double gbufferMs = 0.0;     // primary rays and their resolution
   double visibilityMs = 0.0;  // ray-traced or contact shadow rays
   double lightingMs = 0.0;    // the deferred pass
+};
+
+// What one layer's trace did in a frame.
+struct LayerTraceStats {
+  std::string view;            // the layer's name
+  std::uint64_t texels = 0;    // texels traced
+  bool whole = false;          // traced whole: new, its grid or view changed, its light changed
+  int rectangles = 0;          // texel rectangles traced (exposed strips, dirty boxes' footprints)
+};
+
+// What a frame did (DESIGN.md §11): it follows what changed, not the size of the world.
+struct FrameStats {
+  bool full = false;              // everything redone: the first frame, another scene or tracer binding, forced
+  std::vector<LayerTraceStats> layers;  // per view of the frame, in view order
+  int layersTraced = 0;           // layers with any texel traced
+  std::uint64_t texelsTraced = 0; // shadow rays: the sum over layers
+  std::uint64_t layerTexels = 0;  // every texel of the frame's layers
+  std::uint64_t primaryRays = 0;  // G-buffer rays
+  std::uint64_t visibilityRays = 0;  // ray-traced and contact shadow rays
+  std::uint64_t pixelsShaded = 0; // pixels the lighting pass computed
+  std::uint64_t dirtyBoxes = 0;   // world boxes the scene's changes reported
+  // Bytes the frame moved between host and device (0 on the CPU backend): scene updates, trace records,
+  // rays, layers and G-buffer to the lighting pass, and results read back.
+  std::uint64_t bytesUploaded = 0;
+  std::uint64_t bytesReadBack = 0;
+  int dispatches = 0;             // compute dispatches recorded (Vulkan), trace batches and passes run (CPU)
 };
 
 struct RenderedFrame {
@@ -45,43 +75,57 @@ struct RenderedFrame {
   std::vector<float> shadowTerms;  // per pixel and light
   std::vector<std::string> lightNames;
   std::vector<LightView> views;    // the frame's shadow views (none with ray-traced shadows)
-  // How many of `views` were traced for this frame; the others kept the last frame's layer, whose view and
-  // scene were the same (a static scene under a still or sub-texel-moving camera traces none).
+  // How many of `views` had texels traced for this frame (stats.layers says how many texels).
   int layersTraced = 0;
   RenderTimings timings;
+  FrameStats stats;
 };
 
 class FrameRenderer {
  public:
-  // `tracer` traces every ray kind; on the Vulkan backend the lighting pass also runs on its device.
-  // Preconditions: tracer outlives the renderer.
+  // `tracer` traces every ray kind; on the Vulkan backend the lighting pass also runs on its device. The
+  // renderer binds the scenes it renders to the tracer itself. A tracer destroyed before the renderer makes
+  // render() throw vs::Error(Runtime); the renderer's own device resources keep the device alive until it goes.
   explicit FrameRenderer(Tracer& tracer);
   ~FrameRenderer();
+  FrameRenderer(const FrameRenderer&) = delete;
+  FrameRenderer& operator=(const FrameRenderer&) = delete;
 
-  // Renders the scene from its camera. Preconditions: the scene has a camera (else vs::Error(BadInput));
-  // tracer.setScene(scene.data()) was called after its last voxel change and tracer.instancesMoved after
-  // instances moved (the tracer's sceneVersion() tells this renderer which layers still hold); options.debugLayer
-  // names an existing layer for DebugView::Layer (else vs::Error(BadInput)).
-  RenderedFrame render(const Scene& scene, const RenderOptions& options);
+  // Renders the scene from its camera, redoing only what changed since the last frame (DESIGN.md §11): it
+  // reads the scene's change journal (Scene::changesSince) and updates the tracer's copy with the deltas
+  // (Tracer::sceneChanged), traces the layer texels that the changes' boxes, the exposed strips of scrolled
+  // cascades and changed lights need, and traces, resolves and shades again only the pixels those touch. The
+  // result equals, bit for bit, what a new renderer gives for the same scene, camera and options. Another
+  // scene (Scene::id), a journal that no longer reaches back, or a tracer bound to other arrays since (another
+  // scene, or the reference form of Tracer::setScene) makes the frame redo everything; renderers of one scene
+  // may share a tracer. The frame stays owned by the renderer, valid until the next render() call.
+  // Preconditions: the scene has a camera (else vs::Error(BadInput)); options pass checkRenderOptions;
+  // options.debugLayer names an existing layer for DebugView::Layer (else vs::Error(BadInput)).
+  const RenderedFrame& render(const Scene& scene, const RenderOptions& options);
 
-  // The shadow layers of the last frame that had shadow maps (light view order), reused by the next one.
-  const std::vector<ShadowLayer>& layers() const { return layers_; }
-  // Makes the next frame trace every layer (a benchmark timing the trace, or a caller that changed what the
-  // tracer reads without telling it).
-  void invalidateLayers() { tracedViews_.clear(); }
+  // The shadow layers of the last frame that had shadow maps (its views' order), as stored: a cascade's
+  // layer is a ring over its grid (windowTexels in lighting/light_views.h gives window order).
+  std::vector<ShadowLayer> layers() const;
+  // Makes the next frame redo everything (a benchmark's forced full frame).
+  void invalidateLayers() { forceFull_ = true; }
+
+  // Texels added on every side of a changed box's footprint in each layer (DESIGN.md §11: one). Exists so
+  // that the frame-loop tests can show they notice an invalidation one texel too small (-1); a renderer with
+  // anything below 1 no longer equals a new one.
+  void setFootprintMargin(double texels) { footprintMargin_ = texels; }
 
  private:
+  struct State;
   Tracer& tracer_;
-  std::vector<ShadowLayer> layers_;
-  // Traces the layers whose view or scene changed since they were traced; returns how many.
-  int traceChangedLayers(const std::vector<LightView>& views);
-
-  // What layers_[i] was traced from, and the tracer's scene version then.
-  std::vector<gpu::TraceView> tracedViews_;
-  std::uint64_t tracedVersion_ = 0;
-  struct VulkanPass;
-  std::unique_ptr<VulkanPass> vulkan_;
+  std::weak_ptr<const int> tracerAlive_;
+  bool forceFull_ = false;
+  double footprintMargin_ = 1.0;
+  std::unique_ptr<State> state_;
 };
+
+// Traces every texel of each view into layers[i], stored as FrameRenderer stores it (cascades through their
+// pages, in ring order): what makeShadeInputs reads. Preconditions: views from buildLightViews.
+void traceLayers(Tracer& tracer, std::span<const LightView> views, std::vector<ShadowLayer>& layers);
 
 }  // namespace vs
 

@@ -2,10 +2,13 @@
 #include "lighting/scene.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "voxel/error.h"
 #include "voxel/valid_range.h"
@@ -38,18 +41,22 @@ constexpr std::size_t kAll = std::size_t(-1);
 void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects, std::span<const SceneInstance> instances,
                     std::span<const std::size_t> sources, const Aabb& worldBounds, std::size_t onlyInstance = kAll,
                     std::size_t onlyLight = kAll, std::size_t movedInstance = kAll,
-                    const glm::dmat4* movedBrickToWorld = nullptr) {
+                    const glm::dmat4* movedBrickToWorld = nullptr, const std::vector<char>* active = nullptr) {
+  // Removed instances hold no voxels; an instance being placed is checked whatever its slot says.
+  auto absent = [&](std::size_t i) { return active && i != movedInstance && (i >= active->size() || !(*active)[i]); };
   // A move is checked before it is made: instance movedInstance is read at movedBrickToWorld, its new place.
   auto brickToWorld = [&](std::size_t i) -> const glm::dmat4& {
     return i == movedInstance ? *movedBrickToWorld : instances[i].brickToWorld;
   };
   const std::string file = desc.file.string();
   auto named = [&](std::size_t i) {
+    if (sources[i] == Scene::kAdded)
+      return "instance " + std::to_string(i) + " (object " + std::to_string(instances[i].object) + ")";
     return "instances[" + std::to_string(sources[i]) + "] (asset '" + desc.instances[sources[i]].asset + "')";
   };
   auto skipped = [](std::size_t i, std::size_t only) { return only != kAll && i != only; };
   for (std::size_t i = 0; i < instances.size(); ++i) {
-    if (skipped(i, onlyInstance)) continue;
+    if (skipped(i, onlyInstance) || absent(i)) continue;
     const VoxelBox box = objects[instances[i].object].brickmap.bounds();
     const std::string where = file + ": " + named(i);
     if (box.empty()) continue;
@@ -73,11 +80,11 @@ void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects,
   }
   for (std::size_t li = 0; li < desc.lights.size(); ++li) {
     const LightDesc& light = desc.lights[li];
-    if (!light.shadow || skipped(li, onlyLight)) continue;
+    if (!light.shadow || !light.enabled || skipped(li, onlyLight)) continue;
     std::vector<glm::dvec3> origins =
         light.type == LightType::Directional ? boundsCorners : std::vector<glm::dvec3>{glm::dvec3(light.position)};
     for (std::size_t i = 0; i < instances.size(); ++i) {
-      if (skipped(i, onlyInstance)) continue;
+      if (skipped(i, onlyInstance) || absent(i)) continue;
       const VoxelBox box = objects[instances[i].object].brickmap.bounds();
       if (box.empty()) continue;
       const glm::dmat4 worldToBrick = glm::inverse(brickToWorld(i));
@@ -92,7 +99,34 @@ void checkPlacement(const SceneDesc& desc, std::span<const VoxelObject> objects,
   }
 }
 
+std::uint64_t nextSceneId() {
+  static std::atomic<std::uint64_t> next{1};
+  return next++;
+}
+
 }  // namespace
+
+Scene::Scene() : id_(nextSceneId()) {}
+
+Scene::Scene(const Scene& other)
+    : desc_(other.desc_),
+      objects_(other.objects_),
+      instances_(other.instances_),
+      brickToAsset_(other.brickToAsset_),
+      instanceSource_(other.instanceSource_),
+      sourceInstances_(other.sourceInstances_),
+      assetObjects_(other.assetObjects_),
+      assetNotes_(other.assetNotes_),
+      active_(other.active_),
+      lightIds_(other.lightIds_),
+      nextLightId_(other.nextLightId_),
+      data_(std::make_shared<SceneData>(*other.data_)),
+      id_(nextSceneId()) {}
+
+Scene& Scene::operator=(const Scene& other) {
+  if (this != &other) *this = Scene(other);
+  return *this;
+}
 
 Scene Scene::load(const std::filesystem::path& sceneFile) { return load(parseSceneFile(sceneFile)); }
 
@@ -156,8 +190,10 @@ Scene Scene::load(SceneDesc desc) {
   std::vector<const Brickmap*> brickmaps;
   brickmaps.reserve(scene.objects_.size());
   for (const VoxelObject& object : scene.objects_) brickmaps.push_back(&object.brickmap);
-  scene.data_ = SceneData::build(brickmaps, scene.instances_);
-  checkPlacement(scene.desc_, scene.objects_, scene.instances_, scene.instanceSource_, scene.data_.worldBounds);
+  *scene.data_ = SceneData::build(brickmaps, scene.instances_);
+  checkPlacement(scene.desc_, scene.objects_, scene.instances_, scene.instanceSource_, scene.data_->worldBounds);
+  scene.active_.assign(scene.instances_.size(), 1);
+  for (std::size_t l = 0; l < scene.desc_.lights.size(); ++l) scene.lightIds_.push_back(scene.nextLightId_++);
   return scene;
 }
 
@@ -184,16 +220,21 @@ void Scene::moveInstance(std::size_t i, const glm::dmat4& transform) {
   // Everything is computed and checked aside first and the scene changes only after every check passed, so
   // a refused move leaves each array, bound and the BVH as they were.
   const glm::dmat4 brickToWorld = transform * brickToAsset_[i];
-  const SceneData::Placement placement = data_.placeInstance(i, brickToWorld);
+  if (!instanceActive(i)) throwBadInput(where + ": the instance was removed");
+  const SceneData::Placement placement = data_->placeInstance(i, brickToWorld);
   // The load's placement checks, on the moved world: the moved instance alone, unless the world's bounds (where
   // directional rays start) changed with it.
   const bool sameBounds =
-      placement.worldBounds.min == data_.worldBounds.min && placement.worldBounds.max == data_.worldBounds.max;
+      placement.worldBounds.min == data_->worldBounds.min && placement.worldBounds.max == data_->worldBounds.max;
   checkPlacement(desc_, objects_, instances_, instanceSource_, placement.worldBounds, sameBounds ? i : kAll, kAll, i,
-                 &brickToWorld);
-  data_.applyPlacement(i, placement);
+                 &brickToWorld, &active_);
+  SceneChange change;
+  change.boxes = {data_->instanceBounds[i], placement.box};
+  data_->applyPlacement(i, placement, &change.arrays);
   instances_[i].brickToWorld = brickToWorld;
-  if (sourceInstances_[instanceSource_[i]] == 1) desc_.instances[instanceSource_[i]].transform = transform;
+  if (instanceSource_[i] != kAdded && sourceInstances_[instanceSource_[i]] == 1)
+    desc_.instances[instanceSource_[i]].transform = transform;
+  record(std::move(change));
 }
 
 void Scene::moveLight(std::size_t i, const glm::vec3& position, const glm::vec3& direction) {
@@ -218,11 +259,15 @@ void Scene::moveLight(std::size_t i, const glm::vec3& position, const glm::vec3&
   }
   std::swap(light, moved);
   try {
-    checkPlacement(desc_, objects_, instances_, instanceSource_, data_.worldBounds, kAll, i);
+    checkPlacement(desc_, objects_, instances_, instanceSource_, data_->worldBounds, kAll, i, kAll, nullptr, &active_);
   } catch (const Error&) {
     std::swap(light, moved);
     throw;
   }
+  SceneChange change;
+  change.lights = {lightIds_[i]};
+  change.shading = true;
+  record(std::move(change));
 }
 
 void Scene::setLightColor(std::size_t i, const glm::vec3& color, float intensity) {
@@ -238,6 +283,366 @@ void Scene::setLightColor(std::size_t i, const glm::vec3& color, float intensity
     throwBadInput(where + ".intensity: must be between 0 and " + num(limits::kMaxRadiometric) + ", not " + num(intensity));
   desc_.lights[i].color = color;
   desc_.lights[i].intensity = intensity;
+  SceneChange change;
+  change.shading = true;
+  record(std::move(change));
+}
+
+}  // namespace vs
+
+namespace vs {
+
+namespace {
+
+// The world corners of a brick-space box under brickToWorld stay within the coordinate range.
+void checkReach(const std::string& where, const glm::dmat4& brickToWorld, const VoxelBox& box) {
+  if (box.empty()) return;
+  for (int c = 0; c < 8; ++c) {
+    glm::dvec4 p((c & 1) ? box.max.x : box.min.x, (c & 2) ? box.max.y : box.min.y, (c & 4) ? box.max.z : box.min.z, 1.0);
+    glm::dvec3 w(brickToWorld * p);
+    for (int a = 0; a < 3; ++a)
+      if (!limits::isWorldCoordinate(w[a]))
+        throwBadInput(where + ": reaches " + num(w[a]) + " on axis " + std::to_string(a) +
+                      "; the world must lie within +-" + num(limits::kMaxCoordinate));
+  }
+}
+
+VoxelBox unite(const VoxelBox& a, const VoxelBox& b) {
+  if (a.empty()) return b;
+  if (b.empty()) return a;
+  return {glm::min(a.min, b.min), glm::max(a.max, b.max)};
+}
+
+// The world box of brick-space voxels [min, max) under brickToWorld, padded as instance boxes are.
+Aabb worldBoxOf(const glm::dmat4& brickToWorld, const VoxelBox& box) {
+  Aabb out;
+  if (box.empty()) return out;
+  makeInstanceRecord(brickToWorld, box, 0u, 0u, &out);
+  return out;
+}
+
+void checkAffine(const std::string& where, const glm::dmat4& transform) {
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      if (!std::isfinite(transform[c][r]))
+        throwBadInput(where + ": transform[" + std::to_string(c) + "][" + std::to_string(r) + "] is " +
+                      num(transform[c][r]) + "; every entry must be finite");
+  const double det = glm::determinant(glm::dmat3(transform));
+  if (!std::isfinite(det) || det == 0.0 || transform[0][3] != 0.0 || transform[1][3] != 0.0 ||
+      transform[2][3] != 0.0 || transform[3][3] != 1.0)
+    throwBadInput(where + ": transform must be affine and invertible");
+}
+
+// A light checked exactly as a scene file's light is: written as the file's JSON and parsed back, in a scene of
+// that light alone (with the scene's camera, whose far plane is the default max_distance). Returns the parsed
+// light (normalised direction, defaults filled in); a refusal names `where` and the field.
+LightDesc checkedLight(const SceneDesc& scene, const LightDesc& light, const std::string& where) {
+  using Json = nlohmann::json;
+  auto vec = [](const glm::vec3& v) { return Json::array({v.x, v.y, v.z}); };
+  Json l = {{"name", light.name}, {"type", lightTypeName(light.type)}, {"color", vec(light.color)},
+            {"intensity", light.intensity}};
+  if (light.type != LightType::Point) l["direction"] = vec(light.direction);
+  if (light.type != LightType::Directional) {
+    l["position"] = vec(light.position);
+    l["range"] = light.range;
+  }
+  if (light.type == LightType::Spot) {
+    l["outer_cone_deg"] = light.outerConeDeg;
+    l["inner_cone_deg"] = light.innerConeDeg;
+  }
+  if (light.shadow) {
+    const ShadowDesc& s = *light.shadow;
+    Json sj = {{"resolution", s.resolution}, {"lambda", s.lambda}, {"max_distance", s.maxDistance},
+               {"filter", shadowFilterName(s.filter)}, {"depth_bias", s.depthBias}, {"normal_bias", s.normalBias},
+               {"slope_bias", s.slopeBias}, {"light_size", s.lightSize}, {"contact_shadow", s.contactShadow},
+               {"depth_point", s.depthPoint == gpu::VS_DEPTH_POINT_VOXEL_CENTER ? "voxel_center" : "entry"}};
+    if (light.type == LightType::Directional) {
+      sj["cascades"] = s.cascades;
+      sj["cascade_blend"] = s.cascadeBlend;
+    }
+    l["shadow"] = sj;
+  }
+  Json doc = {{"version", 1}, {"lights", Json::array({l})}};
+  if (scene.camera) {
+    const CameraDesc& c = *scene.camera;
+    doc["camera"] = {{"position", vec(c.position)}, {"target", vec(c.target)}, {"up", vec(c.up)},
+                     {"fov_deg", c.fovDeg}, {"near", c.nearPlane}, {"far", c.farPlane},
+                     {"width", c.width}, {"height", c.height}};
+  }
+  std::string text;
+  try {
+    text = doc.dump();
+  } catch (const Json::exception&) {
+    throwBadInput(where + ": the light's name is not valid UTF-8");
+  }
+  try {
+    SceneDesc parsed = parseSceneJson(text, scene.file);
+    return parsed.lights.at(0);
+  } catch (const Error& e) {
+    // "<file>: lights[0].field: problem" -> "<where>.field: problem".
+    std::string message = e.what();
+    const std::string prefix = scene.file.string() + ": lights[0]";
+    if (message.rfind(prefix, 0) == 0) message = where + message.substr(prefix.size());
+    else message = where + ": " + message;
+    throw Error(e.kind(), message);
+  }
+}
+
+}  // namespace
+
+void Scene::record(SceneChange change) {
+  change.revision = ++revision_;
+  journal_.push_back(std::move(change));
+  while (journal_.size() > kJournalLength) journal_.pop_front();
+}
+
+bool Scene::changesSince(std::uint64_t revision, std::vector<const SceneChange*>& out) const {
+  out.clear();
+  if (revision > revision_) return false;
+  if (revision == revision_) return true;
+  // The journal holds revisions (revision_ - journal_.size(), revision_]: it reaches back to `revision` when
+  // the change right after it is still there.
+  if (journal_.empty() || journal_.front().revision > revision + 1) return false;
+  for (const SceneChange& c : journal_)
+    if (c.revision > revision) out.push_back(&c);
+  return true;
+}
+
+std::vector<const Brickmap*> Scene::brickmaps() const {
+  std::vector<const Brickmap*> out;
+  out.reserve(objects_.size());
+  for (const VoxelObject& o : objects_) out.push_back(&o.brickmap);
+  return out;
+}
+
+std::string Scene::instanceName(std::size_t i) const {
+  if (instanceSource_[i] == kAdded) return "instance " + std::to_string(i);
+  return "instance " + std::to_string(i) + " (instances[" + std::to_string(instanceSource_[i]) + "])";
+}
+
+glm::dmat4 Scene::instanceTransform(std::size_t i) const {
+  if (i >= instances_.size()) throwBadInput("instanceTransform: instance " + std::to_string(i) + " out of range");
+  return instances_[i].brickToWorld * glm::inverse(brickToAsset_[i]);
+}
+
+void Scene::editObject(std::size_t object, const char* call, const VoxelBox& box,
+                       const std::function<EditResult(Brickmap&)>& edit) {
+  if (object >= objects_.size())
+    throwBadInput(std::string(call) + ": object " + std::to_string(object) + " out of range (the scene has " +
+                  std::to_string(objects_.size()) + ")");
+  Brickmap& brickmap = objects_[object].brickmap;
+  // What a fill may grow the object to, under each of its instances, is checked before the edit.
+  const VoxelBox grown = unite(brickmap.bounds(), box);
+  for (std::size_t i = 0; i < instances_.size(); ++i)
+    if (instanceActive(i) && instances_[i].object == object)
+      checkReach(std::string(call) + ": object " + std::to_string(object) + " under " + instanceName(i),
+                 instances_[i].brickToWorld, grown);
+  // The brickmap refuses a bad box or coordinate before changing anything.
+  const EditResult result = edit(brickmap);
+  SceneChange change;
+  const std::vector<const Brickmap*> all = brickmaps();
+  const std::vector<Aabb> boxesBefore = data_->instanceBounds;
+  change.arrays = data_->updateObject(std::uint32_t(object), all, result);
+  for (std::size_t i = 0; i < instances_.size(); ++i)
+    if (instanceActive(i) && instances_[i].object == object) {
+      const Aabb b = worldBoxOf(instances_[i].brickToWorld, result.dirtyVoxels);
+      if (!b.empty()) change.boxes.push_back(b);
+      // A fill beyond the object's box grew it (SceneData::kBoxHeadroomVoxels): every ray through the
+      // instance is re-based anew.
+      const Aabb& was = boxesBefore[i];
+      const Aabb& now = data_->instanceBounds[i];
+      if (was.min != now.min || was.max != now.max) {
+        if (!was.empty()) change.boxes.push_back(was);
+        if (!now.empty()) change.boxes.push_back(now);
+      }
+    }
+  record(std::move(change));
+}
+
+void Scene::fillVoxels(std::size_t object, const VoxelBox& box, std::uint8_t material) {
+  editObject(object, "fillVoxels", material != 0 ? box : VoxelBox{},
+             [&](Brickmap& b) { return b.fillBox(box, material); });
+}
+
+void Scene::setVoxels(std::size_t object, std::span<const SolidVoxel> voxels) {
+  VoxelBox added;
+  for (const SolidVoxel& v : voxels) {
+    for (int a = 0; a < 3; ++a)
+      if (v.coord[a] < -Brickmap::kMaxCoordinate || v.coord[a] >= Brickmap::kMaxCoordinate)
+        throwBadInput("setVoxels: voxel (" + std::to_string(v.coord.x) + ", " + std::to_string(v.coord.y) + ", " +
+                      std::to_string(v.coord.z) + "): coordinates must lie within +-" +
+                      std::to_string(Brickmap::kMaxCoordinate));
+    if (v.material != 0) added = unite(added, VoxelBox{v.coord, v.coord + 1});
+  }
+  editObject(object, "setVoxels", added, [&](Brickmap& b) {
+    EditResult all;
+    for (const SolidVoxel& v : voxels) {
+      EditResult one = b.setVoxel(v.coord, v.material);
+      all.dirty.insert(all.dirty.end(), one.dirty.begin(), one.dirty.end());
+      all.dirtyVoxels = unite(all.dirtyVoxels, one.dirtyVoxels);
+      all.layoutChanged = all.layoutChanged || one.layoutChanged;
+      all.rebuilt = all.rebuilt || one.rebuilt;
+    }
+    return all;
+  });
+}
+
+std::size_t Scene::addObject(Brickmap brickmap, std::vector<glm::vec3> palette, const glm::dmat4& brickToObject) {
+  checkAffine("addObject: brickToObject", brickToObject);
+  if (palette.size() > 256)
+    throwBadInput("addObject: palette: at most 256 entries (0 unused, 1..255), not " + std::to_string(palette.size()));
+  for (std::size_t k = 0; k < palette.size(); ++k)
+    for (int a = 0; a < 3; ++a)
+      if (!(palette[k][a] >= 0.0f && palette[k][a] <= limits::kMaxRadiometric))
+        throwBadInput("addObject: palette[" + std::to_string(k) + "]: components must be between 0 and " +
+                      num(limits::kMaxRadiometric) + ", not " + num(palette[k][a]));
+  palette.resize(256, glm::vec3(0.8f));
+  VoxelObject object;
+  object.file = "(in memory)";
+  object.rule = "built in memory";
+  object.palette = std::move(palette);
+  object.brickToObject = brickToObject;
+  object.brickmap = std::move(brickmap);
+  return addObject(std::move(object));
+}
+
+std::size_t Scene::addObject(VoxelObject object) {
+  checkAffine("addObject: brickToObject", object.brickToObject);
+  SceneChange change;
+  const std::uint32_t index = data_->addObject(object.brickmap, &change.arrays);
+  objects_.push_back(std::move(object));
+  record(std::move(change));
+  return index;
+}
+
+std::size_t Scene::addInstance(std::size_t object, const glm::dmat4& transform) {
+  const std::string where = "addInstance: object " + std::to_string(object);
+  if (object >= objects_.size())
+    throwBadInput(where + ": out of range (the scene has " + std::to_string(objects_.size()) + " objects)");
+  checkAffine(where, transform);
+  const glm::dmat4 brickToWorld = transform * objects_[object].brickToObject;
+  std::size_t slot = 0;
+  while (slot < active_.size() && active_[slot]) ++slot;
+  // Checked on copies: the slot it will take, then the world with it.
+  std::vector<SceneInstance> instances = instances_;
+  std::vector<std::size_t> sources = instanceSource_;
+  std::vector<char> active = active_;
+  if (slot == instances.size()) {
+    instances.emplace_back();
+    sources.push_back(kAdded);
+    active.push_back(0);
+  }
+  instances[slot] = SceneInstance{std::uint32_t(object), brickToWorld};
+  sources[slot] = kAdded;
+  active[slot] = 1;
+  Aabb bounds = data_->worldBounds;
+  const Aabb box = worldBoxOf(brickToWorld, objects_[object].brickmap.bounds());
+  if (!box.empty()) bounds.extend(box);
+  checkPlacement(desc_, objects_, instances, sources, bounds, kAll, kAll, kAll, nullptr, &active);
+  SceneChange change;
+  const std::size_t placed = data_->addInstance(instances[slot], &change.arrays);
+  if (placed != slot) throwRuntime("addInstance: the trace arrays placed the instance in slot " + std::to_string(placed) +
+                                   ", the scene in " + std::to_string(slot));
+  instances_ = std::move(instances);
+  instanceSource_ = std::move(sources);
+  active_ = std::move(active);
+  if (brickToAsset_.size() < instances_.size()) brickToAsset_.resize(instances_.size());
+  brickToAsset_[slot] = objects_[object].brickToObject;
+  if (!box.empty()) change.boxes.push_back(box);
+  record(std::move(change));
+  return slot;
+}
+
+void Scene::removeInstance(std::size_t i) {
+  if (i >= instances_.size())
+    throwBadInput("removeInstance: instance " + std::to_string(i) + " out of range (the scene has " +
+                  std::to_string(instances_.size()) + ")");
+  if (!instanceActive(i)) throwBadInput("removeInstance: instance " + std::to_string(i) + " was removed already");
+  SceneChange change;
+  if (!data_->instanceBounds[i].empty()) change.boxes.push_back(data_->instanceBounds[i]);
+  data_->removeInstance(i, &change.arrays);
+  active_[i] = 0;
+  record(std::move(change));
+}
+
+void Scene::setInstanceObject(std::size_t i, std::size_t object) {
+  const std::string where = "setInstanceObject: instance " + std::to_string(i);
+  if (i >= instances_.size()) throwBadInput(where + ": out of range (the scene has " + std::to_string(instances_.size()) + ")");
+  if (!instanceActive(i)) throwBadInput(where + ": the instance was removed");
+  if (object >= objects_.size())
+    throwBadInput(where + ": object " + std::to_string(object) + " out of range (the scene has " +
+                  std::to_string(objects_.size()) + ")");
+  const glm::dmat4 brickToWorld = instanceTransform(i) * objects_[object].brickToObject;
+  std::vector<SceneInstance> instances = instances_;
+  instances[i] = SceneInstance{std::uint32_t(object), brickToWorld};
+  Aabb bounds;
+  const Aabb box = worldBoxOf(brickToWorld, objects_[object].brickmap.bounds());
+  for (std::size_t k = 0; k < instances.size(); ++k) {
+    const Aabb& b = k == i ? box : data_->instanceBounds[k];
+    if (instanceActive(k) && !b.empty()) bounds.extend(b);
+  }
+  checkPlacement(desc_, objects_, instances, instanceSource_, bounds, kAll, kAll, kAll, nullptr, &active_);
+  SceneChange change;
+  if (!data_->instanceBounds[i].empty()) change.boxes.push_back(data_->instanceBounds[i]);
+  data_->setInstanceObject(i, std::uint32_t(object), brickToWorld, &change.arrays);
+  if (!box.empty()) change.boxes.push_back(box);
+  instances_ = std::move(instances);
+  brickToAsset_[i] = objects_[object].brickToObject;
+  record(std::move(change));
+}
+
+std::size_t Scene::addLight(LightDesc light) {
+  const std::string where = "addLight: lights[" + std::to_string(desc_.lights.size()) + "]";
+  if (light.name.empty()) light.name = "light" + std::to_string(desc_.lights.size());
+  for (const LightDesc& l : desc_.lights)
+    if (l.name == light.name) throwBadInput(where + ".name: '" + light.name + "' is taken");
+  SceneDesc trial = desc_;
+  trial.lights.push_back(checkedLight(desc_, light, where));
+  trial.lights.back().enabled = light.enabled;
+  checkPlacement(trial, objects_, instances_, instanceSource_, data_->worldBounds, kAll, trial.lights.size() - 1, kAll,
+                 nullptr, &active_);
+  desc_.lights.push_back(std::move(trial.lights.back()));
+  lightIds_.push_back(nextLightId_++);
+  SceneChange change;
+  change.lights = {lightIds_.back()};
+  change.shading = true;
+  record(std::move(change));
+  return desc_.lights.size() - 1;
+}
+
+void Scene::removeLight(std::size_t i) {
+  if (i >= desc_.lights.size())
+    throwBadInput("removeLight: light " + std::to_string(i) + " out of range (the scene has " +
+                  std::to_string(desc_.lights.size()) + ")");
+  SceneChange change;
+  change.lights = {lightIds_[i]};
+  change.shading = true;
+  desc_.lights.erase(desc_.lights.begin() + std::ptrdiff_t(i));
+  lightIds_.erase(lightIds_.begin() + std::ptrdiff_t(i));
+  record(std::move(change));
+}
+
+void Scene::setLightEnabled(std::size_t i, bool enabled) {
+  if (i >= desc_.lights.size())
+    throwBadInput("setLightEnabled: light " + std::to_string(i) + " out of range (the scene has " +
+                  std::to_string(desc_.lights.size()) + ")");
+  LightDesc& light = desc_.lights[i];
+  if (light.enabled == enabled) return;
+  if (enabled) {
+    light.enabled = true;
+    try {
+      checkPlacement(desc_, objects_, instances_, instanceSource_, data_->worldBounds, kAll, i, kAll, nullptr, &active_);
+    } catch (const Error&) {
+      light.enabled = false;
+      throw;
+    }
+  } else {
+    light.enabled = false;
+  }
+  SceneChange change;
+  change.lights = {lightIds_[i]};
+  change.shading = true;
+  record(std::move(change));
 }
 
 }  // namespace vs

@@ -90,6 +90,7 @@ struct LightDesc {
   glm::vec3 color{1.0f, 1.0f, 1.0f};
   float intensity = 1.0f;
   std::optional<ShadowDesc> shadow;  // absent: the light casts no shadow
+  bool enabled = true;  // a disabled light lights nothing and traces nothing (Scene::setLightEnabled)
 };
 
 struct SceneDesc {

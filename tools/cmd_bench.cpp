@@ -17,8 +17,11 @@
 
 #include "compute/cpu/lane_tracer.h"
 #include "compute/tracer.h"
+#include "compute/vulkan/vulkan_tracer.h"
+#include "compute/cpu/cpu_tracer.h"
 #include "lighting/renderer.h"
 #include "lighting/scene.h"
+#include "tools/bench_loop.h"
 #include "tools/commands.h"
 #include "tools/resources.h"
 #include "tools/peer/openvdb_peer.h"
@@ -390,12 +393,48 @@ void registerBench(CLI::App& app) {
   cmd->add_flag("--vulkan", options->vulkan,
                 "also trace on the Vulkan backend (default device): steady-state median after warm-up, pipeline "
                 "creation and first trace reported apart");
-  cmd->add_flag("--frame", options->frame,
+  CLI::Option* frame = cmd->add_flag("--frame", options->frame,
                 "instead, time the lit 1280x720 demo frame per stage (shadow maps traced every frame, ray-traced "
                 "shadows, and a still frame that keeps its layers; CPU, and Vulkan with --vulkan)");
-  cmd->callback([options] {
-    if (options->frame) runFrameBench(*options);
-    else runBench(*options);
+  // --loop: a scripted game loop (tools/bench_loop.h); --threads and --vulkan are shared with the other benches.
+  auto loop = std::make_shared<LoopBenchOptions>();
+  auto loopOn = std::make_shared<bool>(false);
+  auto size = std::make_shared<std::string>();
+  CLI::Option* loopFlag = cmd->add_flag("--loop", *loopOn,
+                "instead, run a scripted game loop over the 1280x720 demo (phases still, pan, actor, dig, sun) and "
+                "print each phase's frame times beside forced full frames; CPU, and Vulkan with --vulkan");
+  loopFlag->excludes(frame);
+  for (const char* other : {"--resolution", "--reps", "--no-peer"}) loopFlag->excludes(cmd->get_option(other));
+  cmd->add_option("--frames", loop->frames, "--loop: frames per phase, 1..100000 (default 100)")->needs(loopFlag);
+  cmd->add_option("--full-every", loop->fullEvery,
+                  "--loop: a forced full frame of the same state after every K-th frame (default 1)")->needs(loopFlag);
+  cmd->add_option("--csv", loop->csv, "--loop: write one row per frame to this CSV file")->needs(loopFlag);
+  cmd->add_option("--plot", loop->plot,
+                  "--loop: draw the frame times into this .png (tools/plot_loop.py; needs python3-matplotlib)")
+      ->needs(loopFlag);
+  // Smaller frames and shadow layers, for tests.
+  cmd->add_option("--size", *size, "--loop: frame size WxH (default 1280x720)")->needs(loopFlag)->group("");
+  cmd->add_option("--shadow-divisor", loop->shadowDivisor, "--loop: shadow resolutions divided by this power of two")
+      ->needs(loopFlag)->group("");
+  cmd->callback([options, loop, loopOn, size] {
+    if (*loopOn) {
+      LoopBenchOptions o = *loop;
+      o.threads = options->threads;
+      o.vulkan = options->vulkan;
+      if (!size->empty()) {
+        int w = 0, h = 0;
+        char tail = 0;
+        if (std::sscanf(size->c_str(), "%dx%d%c", &w, &h, &tail) != 2)
+          throwBadInput("bench --loop: --size " + *size + ": must be WxH, e.g. 320x180");
+        o.width = w;
+        o.height = h;
+      }
+      runLoopBench(o);
+    } else if (options->frame) {
+      runFrameBench(*options);
+    } else {
+      runBench(*options);
+    }
   });
 }
 

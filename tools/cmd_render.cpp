@@ -5,6 +5,8 @@
 #include <cstdio>
 
 #include "compute/tracer.h"
+#include "compute/vulkan/vulkan_tracer.h"
+#include "compute/cpu/cpu_tracer.h"
 #include "lighting/camera.h"
 #include "lighting/light_views.h"
 #include "lighting/renderer.h"

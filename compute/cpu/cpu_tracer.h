@@ -7,32 +7,9 @@
 #include <vector>
 
 #include "compute/scene_data.h"
+#include "compute/trace_types.h"
 
 namespace vs {
-
-// One shadow layer: width x height R32F texels, row 0 first.
-struct ShadowLayer {
-  int width = 0;
-  int height = 0;
-  std::vector<float> texels;
-};
-
-enum class CpuTracePath {
-  // The portable per-ray traversal, exactly what the shader runs: the walk over the scene's box table
-  // (compute/box_table.h) where the scene has one, else the brickmap hierarchy.
-  Reference,
-  // The fast path (compute/cpu/lane_tracer.h): the box-table walk of the widest SIMD lanes this processor
-  // runs (AVX-512, AVX2, else one scalar lane), equal to Reference ray for ray; the portable tiles where the
-  // scene has no box table.
-  Interleaved,
-  // Round-robin tiles over the brickmap hierarchy walk (compute/cpu/tile_tracer.h), whatever the processor:
-  // the walk that does not read the box table, kept as a check on it.
-  PortableTiles,
-  // The fast path with the lanes named (vs::Error(BadInput) where the processor or the scene cannot run it).
-  LanesScalar,
-  LanesAvx2,
-  LanesAvx512,
-};
 
 class CpuTracer {
  public:
@@ -42,9 +19,14 @@ class CpuTracer {
   CpuTracer(const CpuTracer&) = delete;
   CpuTracer& operator=(const CpuTracer&) = delete;
 
-  // Must be called after the scene's voxel arrays changed (edits, compaction, objects added); the tables are
-  // rebuilt on the next trace.
+  // Everything changed (the scene was replaced or rebuilt in place): the tables are rebuilt whole on the next
+  // trace.
   void voxelsChanged();
+  // Must be called after each change to the scene (SceneData::updateObject, addObject, instance changes) with
+  // what it reported; several deltas may be given one after the other, or merged. The box table is updated on
+  // the next trace, around the delta's edited bricks only (updateBoxTable), or built anew where the delta
+  // laid the voxel arrays out again. Instance changes need nothing: the tracer reads the scene in place.
+  void sceneChanged(const SceneDelta& delta);
 
   // Traces every view's texel rectangle into layers[i] (resized to the view's size when it differs; texels
   // outside the rectangle keep their values). Preconditions: views[i].info.xy > 0, rect inside the view (else
@@ -60,8 +42,10 @@ class CpuTracer {
   void traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded,
                 CpuTracePath path = CpuTracePath::Interleaved, int threads = 0);
 
-  // Seconds the last table build took (0 before the first trace).
+  // Seconds the last table build or update took (0 before the first trace).
   double tableBuildSeconds() const { return tableSeconds_; }
+  // Whether the last table change was a local update (false: a whole build, or none yet).
+  bool tableUpdatedLocally() const { return tableLocal_; }
   // Whether the scene has a box table (built on the first trace); without one every path walks the hierarchy.
   bool hasBoxTable();
 
@@ -71,6 +55,8 @@ class CpuTracer {
   const SceneData* scene_;
   std::vector<std::int32_t> boxTable_;
   bool tablesBuilt_ = false;
+  SceneDelta pending_;  // changes since the table was last brought up to date
+  bool tableLocal_ = false;
   double tableSeconds_ = 0.0;
 };
 

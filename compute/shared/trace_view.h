@@ -17,18 +17,15 @@ const int VS_DEPTH_POINT_VOXEL_CENTER = 1;  // the hit voxel's centre, projected
 
 // Larger than any t a trace produces; marks "no hit" in box tests.
 const float VS_T_INFINITY = 3.0e38f;
-// Stack depth of the CPU tiles' BVH traversal (the portable one is stackless); the builder keeps trees
-// shallower than this (bvh/bvh.h).
-const int VS_BVH_STACK_SIZE = 64;
 
 // What one step of an object walk found (compute/shared/traverse.h).
 const int VS_WALK_CONTINUE = 0;
 const int VS_WALK_HIT = 1;
 const int VS_WALK_MISS = 2;
 
-// The box table's codes, one per brick (written by compute/cpu/lane_tracer.cpp, read by the CPU lanes and by
+// The box table's codes, one per brick (written by compute/box_table.cpp, read by the CPU lanes and by
 // vsObjectWalkBoxes in traverse.h): VS_BOX_FULL for a full brick, the index of its first occupancy word (>= 0;
-// in the scene's occupancy array on the CPU, in the table's copy of it on the GPU) for a partial one, else
+// in the table's own copy of the occupancy words, on both backends) for a partial one, else
 // -1 - box for an empty one, where box holds six extents of
 // VS_BOX_EXTENT_BITS bits each (-x, +x, -y, +y, -z, +z, in cells of 2^log2 voxels, from bit 0) and log2 from
 // bit VS_BOX_LOG2_SHIFT.

@@ -6,8 +6,10 @@
 #include <bit>
 #include <chrono>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <map>
+#include <utility>
 
 #include "compute/box_table.h"
 #include "compute/vulkan/pipeline_cache.h"
@@ -94,14 +96,30 @@ std::array<HostArray, kRecordArrayCount> recordArrays(const SceneArrays& s) {
 struct DeviceArray {
   std::vector<vk::Buffer> buffers;
   std::uint64_t elements = 0;
+  std::uint64_t capacity = 0;  // elements the buffers hold (more than `elements` after a growth's headroom)
   std::uint32_t shift = 0;
+  std::uint64_t generation = 0;  // advanced whenever the buffers are made anew: views of the old ones are stale
 };
+
+// A copy of host bytes into a device buffer, one region of update()'s staging copy.
+struct UploadRegion {
+  VkBuffer dst;
+  VkDeviceSize offset;
+  const std::uint8_t* src;
+  VkDeviceSize size;
+};
+
+// Bytes of one staging buffer of update(): larger copies go in several submissions.
+constexpr VkDeviceSize kUpdateStagingBytes = VkDeviceSize(64) << 20;
 
 }  // namespace
 
 struct VulkanTracer::Impl {
   VulkanOptions options;
-  VulkanContext context;
+  // Shared with what records on this device beside the tracer (the lighting pass), so that the device lives
+  // until the last of them is gone, whichever goes first.
+  std::shared_ptr<VulkanContext> contextOwner;
+  VulkanContext& context;
   std::unique_ptr<DiskPipelineCache> cache;
   vk::ComputePipeline pipeline;   // its layouts; the pipelines themselves are `variants`
   vk::UniqueShaderModule module;
@@ -127,6 +145,13 @@ struct VulkanTracer::Impl {
   std::uint32_t nodeCount = 0;
   bool uploaded = false;
 
+  // The box table as last uploaded from a SceneData (update() changes it around edits); empty otherwise.
+  std::vector<std::int32_t> hostTable;
+  bool tableFromScene = false;
+  vk::Buffer updateStaging;
+  std::uint64_t uploadedBytes = 0;
+  int growths = 0;
+
   vk::Buffer viewBuffer;
   vk::Buffer readback;
   vk::Image image;
@@ -134,7 +159,9 @@ struct VulkanTracer::Impl {
   vk::Buffer rayBuffer, hitBuffer, occludedBuffer;
 
   explicit Impl(const VulkanOptions& o)
-      : options(o), context(VulkanContextOptions{o.deviceIndex, o.deviceName, o.validation}) {
+      : options(o),
+        contextOwner(std::make_shared<VulkanContext>(VulkanContextOptions{o.deviceIndex, o.deviceName, o.validation})),
+        context(*contextOwner) {
     const VulkanDeviceInfo& info = context.info();
     std::uint32_t needed = gpu::VS_STORAGE_BUFFER_COUNT;
     if (info.maxPerStageStorageBuffers < needed)
@@ -278,19 +305,29 @@ struct VulkanTracer::Impl {
                    std::uint64_t elementsPerBuffer, std::uint32_t shift,
                    VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT) {
     usage |= VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    bool reuse = dst.elements == elements && dst.shift == shift && !dst.buffers.empty();
-    if (!reuse) {
-      dst.buffers.clear();
-      for (std::uint64_t first = 0; first < elements; first += elementsPerBuffer) {
-        std::uint64_t n = std::min(elementsPerBuffer, elements - first);
-        dst.buffers.push_back(context.createDeviceBuffer(n * elementSize, usage));
-      }
-      dst.elements = elements;
-      dst.shift = shift;
-    }
+    bool reuse = dst.elements == elements && dst.capacity == elements && dst.shift == shift && !dst.buffers.empty();
+    if (!reuse) allocateArray(dst, elements, elements, elementSize, elementsPerBuffer, shift, usage);
     const auto* bytes = static_cast<const std::uint8_t*>(data);
-    for (std::size_t b = 0; b < dst.buffers.size(); ++b)
+    for (std::size_t b = 0; b < dst.buffers.size(); ++b) {
       context.upload(dst.buffers[b], 0, bytes + b * elementsPerBuffer * elementSize, dst.buffers[b].size);
+      uploadedBytes += dst.buffers[b].size;
+    }
+  }
+
+  // Gives an array new buffers holding `capacity` elements (of which `elements` are in use), split every
+  // elementsPerBuffer elements; no data is copied.
+  void allocateArray(DeviceArray& dst, std::uint64_t elements, std::uint64_t capacity, std::uint64_t elementSize,
+                     std::uint64_t elementsPerBuffer, std::uint32_t shift, VkBufferUsageFlags usage) {
+    usage |= VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    dst.buffers.clear();
+    for (std::uint64_t first = 0; first < capacity; first += elementsPerBuffer) {
+      std::uint64_t n = std::min(elementsPerBuffer, capacity - first);
+      dst.buffers.push_back(context.createDeviceBuffer(n * elementSize, usage));
+    }
+    dst.elements = elements;
+    dst.capacity = capacity;
+    dst.shift = shift;
+    ++dst.generation;
   }
 
   // The most texels one texel-buffer binding may hold: the device limit, or the test override in bytes.
@@ -300,16 +337,26 @@ struct VulkanTracer::Impl {
     return limit;
   }
 
+  // The box table's bound: the one of every backend (kMaxBoxTableElements), or less where the device's
+  // texel-buffer limit (or the test override) is lower.
+  std::uint64_t tableLimit() const { return std::min(kMaxBoxTableElements, texelLimit()); }
+
   void upload(const SceneData& scene) {
     std::vector<std::int32_t> table;
-    if (options.boxTable) table = buildBoxTable(scene, texelLimit());
+    if (options.boxTable) table = buildBoxTable(scene, tableLimit());
     upload(SceneArrays::from(scene), table);
+    hostTable = std::move(table);
+    tableFromScene = options.boxTable;
   }
 
-  void upload(const SceneArrays& s, std::span<const std::int32_t> table = {}) {
-    const VulkanDeviceInfo& info = context.info();
-    const std::uint64_t limit = bindingLimit();
-    std::array<HostArray, kSplitArrayCount> splitSrc{{
+  void uploadArrays(const SceneArrays& s) {
+    upload(s);
+    hostTable.clear();
+    tableFromScene = false;
+  }
+
+  static std::array<HostArray, kSplitArrayCount> splitArrays(const SceneArrays& s) {
+    return {{
         {s.regionTable.data(), s.regionTable.size(), sizeof(std::uint32_t)},
         {s.regions.data(), s.regions.size(), sizeof(gpu::Region)},
         {s.sectors.data(), s.sectors.size(), sizeof(gpu::Sector)},
@@ -317,6 +364,29 @@ struct VulkanTracer::Impl {
         {s.occupancy.data(), s.occupancy.size(), sizeof(std::uint32_t)},
         {s.payload.data(), s.payload.size(), sizeof(std::uint32_t)},
     }};
+  }
+
+  // How split array a is cut into buffers under the binding limit: elements per buffer and its log2. Throws
+  // vs::Error(Runtime) naming the limit when the array needs more than kMaxBuffersPerArray of them.
+  std::uint64_t splitPlan(int a, const HostArray& src, std::uint32_t& shift) const {
+    const std::uint64_t limit = bindingLimit();
+    const std::uint64_t bytes = src.elements * src.size;
+    // A power-of-two element count per buffer lets the shader split an index with a shift and a mask.
+    std::uint64_t fit = std::min<std::uint64_t>(limit / src.size, std::uint64_t(1) << 31);
+    if (fit == 0) throwRuntime("binding limit of " + std::to_string(limit) + " bytes is below one element");
+    const std::uint64_t perBuffer = std::bit_floor(fit);
+    shift = static_cast<std::uint32_t>(std::countr_zero(perBuffer));
+    std::uint64_t buffers = (src.elements + perBuffer - 1) / perBuffer;
+    if (buffers > kMaxBuffersPerArray)
+      throwRuntime("scene array '" + std::string(kSplitNames[a]) + "' needs " + mib(bytes) + ", more than " +
+                   std::to_string(kMaxBuffersPerArray) + " buffers of the device's storage-buffer limit (" +
+                   mib(limit) + ", maxStorageBufferRange) on " + context.info().name);
+    return perBuffer;
+  }
+
+  void upload(const SceneArrays& s, std::span<const std::int32_t> table = {}) {
+    const VulkanDeviceInfo& info = context.info();
+    const std::array<HostArray, kSplitArrayCount> splitSrc = splitArrays(s);
     const std::array<HostArray, kRecordArrayCount> wholeSrc = recordArrays(s);
 
     // Refuse what cannot fit before allocating anything.
@@ -324,18 +394,8 @@ struct VulkanTracer::Impl {
     std::array<std::uint64_t, kSplitArrayCount> perBuffer{};
     std::array<std::uint32_t, kSplitArrayCount> shifts{};
     for (int a = 0; a < kSplitArrayCount; ++a) {
-      std::uint64_t bytes = splitSrc[a].elements * splitSrc[a].size;
-      total += bytes;
-      // A power-of-two element count per buffer lets the shader split an index with a shift and a mask.
-      std::uint64_t fit = std::min<std::uint64_t>(limit / splitSrc[a].size, std::uint64_t(1) << 31);
-      if (fit == 0) throwRuntime("binding limit of " + std::to_string(limit) + " bytes is below one element");
-      perBuffer[a] = std::bit_floor(fit);
-      shifts[a] = static_cast<std::uint32_t>(std::countr_zero(perBuffer[a]));
-      std::uint64_t buffers = (splitSrc[a].elements + perBuffer[a] - 1) / perBuffer[a];
-      if (buffers > kMaxBuffersPerArray)
-        throwRuntime("scene array '" + std::string(kSplitNames[a]) + "' needs " + mib(bytes) + ", more than " +
-                     std::to_string(kMaxBuffersPerArray) + " buffers of the device's storage-buffer limit (" +
-                     mib(limit) + ", maxStorageBufferRange) on " + info.name);
+      total += splitSrc[a].elements * splitSrc[a].size;
+      perBuffer[a] = splitPlan(a, splitSrc[a], shifts[a]);
     }
     for (int a = 0; a < kRecordArrayCount; ++a) {
       total += wholeSrc[a].elements * wholeSrc[a].size;
@@ -353,10 +413,11 @@ struct VulkanTracer::Impl {
       boxCodesView.reset();
       boxCodes = DeviceArray{};
     } else {
-      bool reuse = boxCodes.elements == table.size();
+      const std::uint64_t generation = boxCodes.generation;
       uploadArray(boxCodes, table.data(), table.size(), sizeof(std::int32_t), table.size(), 0,
                   VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT);
-      if (!reuse || !boxCodesView) boxCodesView = context.createTexelView(boxCodes.buffers[0], VK_FORMAT_R32_SINT);
+      if (generation != boxCodes.generation || !boxCodesView)
+        boxCodesView = context.createTexelView(boxCodes.buffers[0], VK_FORMAT_R32_SINT);
     }
     boxTableUploaded = !table.empty();
     nodeCount = static_cast<std::uint32_t>(s.nodes.size());
@@ -375,12 +436,12 @@ struct VulkanTracer::Impl {
   }
 
   void uploadRecordArray(int a, const HostArray& src) {
-    bool reuse = whole[a].elements == src.elements && wholeViews[a];
+    const std::uint64_t generation = whole[a].generation;
     uploadArray(whole[a], src.data, src.elements, src.size, std::max<std::uint64_t>(src.elements, 1), 0,
                 VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT);
     if (whole[a].buffers.empty())
       wholeViews[a].reset();
-    else if (!reuse)
+    else if (generation != whole[a].generation || !wholeViews[a])
       wholeViews[a] = context.createTexelView(whole[a].buffers[0], kRecordArrays[a].format);
   }
 
@@ -400,6 +461,211 @@ struct VulkanTracer::Impl {
     for (int a = 1; a < kRecordArrayCount; ++a) uploadRecordArray(a, records[a]);
     nodeCount = static_cast<std::uint32_t>(s.nodes.size());
   }
+
+  // What update() copies into one array: the byte ranges `ranges` of `src` (clipped to its size), or all of
+  // it when `whole`; cut at the buffer boundaries of a split array.
+  static void regionsOf(const DeviceArray& dst, const HostArray& src, bool whole,
+                        std::span<const std::pair<std::uint64_t, std::uint64_t>> ranges,
+                        std::vector<UploadRegion>& out) {
+    const std::uint64_t bytes = src.elements * src.size;
+    if (bytes == 0 || dst.buffers.empty()) return;
+    const std::uint64_t chunk = dst.buffers.size() > 1 ? (std::uint64_t(1) << dst.shift) * src.size : ~std::uint64_t(0);
+    auto add = [&](std::uint64_t first, std::uint64_t end) {
+      end = std::min(end, bytes);
+      while (first < end) {
+        const std::uint64_t c = dst.buffers.size() > 1 ? first / chunk : 0;
+        const std::uint64_t chunkEnd = dst.buffers.size() > 1 ? (c + 1) * chunk : end;
+        const std::uint64_t n = std::min(end, chunkEnd) - first;
+        out.push_back({dst.buffers[std::size_t(c)].get(), first - c * (dst.buffers.size() > 1 ? chunk : 0),
+                       static_cast<const std::uint8_t*>(src.data) + first, n});
+        first += n;
+      }
+    };
+    if (whole) {
+      add(0, bytes);
+      return;
+    }
+    for (const auto& [offset, size] : ranges) add(offset, offset + size);
+  }
+
+  // Copies every region through one staging buffer: one submission with a copy region per range (more only
+  // when they exceed kUpdateStagingBytes).
+  void uploadRegions(const std::vector<UploadRegion>& regions) {
+    VkDeviceSize total = 0;
+    for (const UploadRegion& r : regions) total += r.size;
+    if (total == 0) return;
+    const VkDeviceSize stagingBytes = std::min(total, kUpdateStagingBytes);
+    if (!updateStaging.buffer || updateStaging.size < stagingBytes)
+      updateStaging = context.createHostBuffer(stagingBytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+    auto* staging = static_cast<std::uint8_t*>(updateStaging.mapped);
+    std::size_t next = 0;
+    VkDeviceSize done = 0;  // of regions[next]
+    while (next < regions.size()) {
+      VkDeviceSize used = 0;
+      std::vector<std::pair<VkBuffer, VkBufferCopy>> copies;
+      while (next < regions.size() && used < updateStaging.size) {
+        const UploadRegion& r = regions[next];
+        const VkDeviceSize n = std::min(r.size - done, updateStaging.size - used);
+        if (n > 0) {
+          std::memcpy(staging + used, r.src + done, n);
+          copies.push_back({r.dst, VkBufferCopy{used, r.offset + done, n}});
+        }
+        used += n;
+        done += n;
+        if (done == r.size) {
+          ++next;
+          done = 0;
+        }
+      }
+      std::stable_sort(copies.begin(), copies.end(),
+                       [](const auto& a, const auto& b) { return std::less<VkBuffer>{}(a.first, b.first); });
+      context.submitAndWait([&](VkCommandBuffer cmd) {
+        std::vector<VkBufferCopy> group;
+        for (std::size_t i = 0; i < copies.size();) {
+          group.clear();
+          std::size_t j = i;
+          for (; j < copies.size() && copies[j].first == copies[i].first; ++j) group.push_back(copies[j].second);
+          vkCmdCopyBuffer(cmd, updateStaging.get(), copies[i].first, static_cast<std::uint32_t>(group.size()),
+                          group.data());
+          i = j;
+        }
+      });
+      uploadedBytes += used;
+    }
+  }
+
+  void update(const SceneData& scene, const SceneDelta& delta) {
+    if (!uploaded) throwRuntime("VulkanTracer::update called before upload()");
+    const VulkanDeviceInfo& info = context.info();
+    const SceneArrays s = SceneArrays::from(scene);
+    const std::array<HostArray, kSplitArrayCount> splitSrc = splitArrays(s);
+    const std::array<HostArray, kRecordArrayCount> wholeSrc = recordArrays(s);
+    // Half as much again, within what one array may hold.
+    auto headroom = [](std::uint64_t needed, std::uint64_t most) {
+      return std::max(needed, std::min(most, needed + needed / 2));
+    };
+
+    // Every refusal before any change: the binding and texel limits, then device memory with the new capacities.
+    std::array<std::uint64_t, kSplitArrayCount> perBuffer{}, splitCapacity{};
+    std::array<std::uint32_t, kSplitArrayCount> shifts{};
+    std::array<bool, kSplitArrayCount> splitGrows{};
+    std::uint64_t total = 0;
+    for (int a = 0; a < kSplitArrayCount; ++a) {
+      perBuffer[a] = splitPlan(a, splitSrc[a], shifts[a]);
+      const std::uint64_t n = splitSrc[a].elements;
+      const DeviceArray& d = split[a];
+      splitGrows[a] = n > 0 && (d.buffers.empty() || n > d.capacity || d.shift != shifts[a]);
+      splitCapacity[a] = splitGrows[a] ? headroom(n, perBuffer[a] * kMaxBuffersPerArray) : d.capacity;
+      total += splitCapacity[a] * splitSrc[a].size;
+    }
+    std::array<std::uint64_t, kRecordArrayCount> recordCapacity{};
+    std::array<bool, kRecordArrayCount> recordGrows{};
+    for (int a = 0; a < kRecordArrayCount; ++a) {
+      checkRecordArray(a, wholeSrc[a].elements);
+      const std::uint64_t n = wholeSrc[a].elements;
+      recordGrows[a] = n > 0 && (whole[a].buffers.empty() || n > whole[a].capacity);
+      recordCapacity[a] = recordGrows[a] ? headroom(n, info.maxTexelBufferElements / kRecordArrays[a].texelsPerElement)
+                                         : whole[a].capacity;
+      total += recordCapacity[a] * wholeSrc[a].size;
+    }
+    // The table this scene gets (updateBoxTable gives what buildBoxTable would): its size is known beforehand.
+    const bool withTable = options.boxTable && tableFromScene;
+    std::uint64_t tableElements = 0;
+    if (withTable) {
+      tableElements = scene.objects.size() + scene.occupancy.size();
+      for (const gpu::ObjectRecord& o : scene.objects)
+        tableElements +=
+            std::uint64_t(o.regionDims.x) * std::uint64_t(o.regionDims.y) * std::uint64_t(o.regionDims.z) * 4096u;
+      if (tableElements > std::min<std::uint64_t>(tableLimit(), std::numeric_limits<std::int32_t>::max()))
+        tableElements = 0;
+    }
+    const bool tableGrows = tableElements > 0 && (boxCodes.buffers.empty() || tableElements > boxCodes.capacity);
+    const std::uint64_t tableCapacity = tableGrows ? headroom(tableElements, tableLimit()) : boxCodes.capacity;
+    total += tableCapacity * sizeof(std::int32_t);
+    if (info.deviceLocalBytes > 0 && total > info.deviceLocalBytes)
+      throwRuntime("scene needs " + mib(total) + " of device memory, more than the device-local heap (" +
+                   mib(info.deviceLocalBytes) + ") of " + info.name);
+
+    // The delta's ranges per array; the BVH's are over its three arrays in a row (SceneArray::Bvh).
+    using Ranges = std::vector<std::pair<std::uint64_t, std::uint64_t>>;
+    std::array<Ranges, kSplitArrayCount> splitRanges;
+    std::array<Ranges, kRecordArrayCount> recordRanges;
+    bool instanceRanges = false, bvhRanges = false;
+    const std::uint64_t bvhStarts[4] = {
+        0, bytesOfArray(wholeSrc[2]), bytesOfArray(wholeSrc[2]) + bytesOfArray(wholeSrc[3]),
+        bytesOfArray(wholeSrc[2]) + bytesOfArray(wholeSrc[3]) + bytesOfArray(wholeSrc[4])};
+    for (const SceneDirtyRange& r : delta.ranges) {
+      const int a = int(r.array);
+      if (a < kSplitArrayCount) {
+        splitRanges[a].push_back({r.byteOffset, r.byteSize});
+      } else if (r.array == SceneArray::Objects) {
+        recordRanges[0].push_back({r.byteOffset, r.byteSize});
+      } else if (r.array == SceneArray::Instances) {
+        recordRanges[1].push_back({r.byteOffset, r.byteSize});
+        instanceRanges = true;
+      } else if (r.array == SceneArray::Bvh) {
+        bvhRanges = true;
+        for (int k = 0; k < 3; ++k) {
+          const std::uint64_t lo = std::max<std::uint64_t>(r.byteOffset, bvhStarts[k]);
+          const std::uint64_t hi = std::min<std::uint64_t>(r.byteOffset + r.byteSize, bvhStarts[k + 1]);
+          if (lo < hi) recordRanges[2 + k].push_back({lo - bvhStarts[k], hi - lo});
+        }
+      }
+    }
+
+    std::vector<UploadRegion> regions;
+    for (int a = 0; a < kSplitArrayCount; ++a) {
+      DeviceArray& d = split[a];
+      if (splitGrows[a]) {
+        if (!d.buffers.empty()) ++growths;
+        allocateArray(d, splitSrc[a].elements, splitCapacity[a], splitSrc[a].size, perBuffer[a], shifts[a],
+                      VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+      }
+      d.elements = splitSrc[a].elements;
+      regionsOf(d, splitSrc[a], splitGrows[a] || delta.voxelLayout, splitRanges[a], regions);
+    }
+    for (int a = 0; a < kRecordArrayCount; ++a) {
+      DeviceArray& d = whole[a];
+      if (recordGrows[a]) {
+        if (!d.buffers.empty()) ++growths;
+        allocateArray(d, wholeSrc[a].elements, recordCapacity[a], wholeSrc[a].size, recordCapacity[a], 0,
+                      VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT);
+        wholeViews[a] = context.createTexelView(d.buffers[0], kRecordArrays[a].format);
+      }
+      d.elements = wholeSrc[a].elements;
+      // Instances and the BVH go whole when the delta says they changed without saying where.
+      const bool all = recordGrows[a] || (a == 0 && delta.voxelLayout) ||
+                       (a == 1 && delta.instances && !instanceRanges) || (a >= 2 && delta.instances && !bvhRanges);
+      regionsOf(d, wholeSrc[a], all, recordRanges[a], regions);
+    }
+    if (withTable) {
+      const BoxTableUpdate changed = updateBoxTable(hostTable, scene, delta, tableLimit());
+      if (hostTable.empty()) {
+        boxCodesView.reset();
+        boxCodes = DeviceArray{};
+      } else {
+        if (tableGrows || boxCodes.capacity < hostTable.size()) {
+          if (!boxCodes.buffers.empty()) ++growths;
+          allocateArray(boxCodes, hostTable.size(), std::max<std::uint64_t>(tableCapacity, hostTable.size()),
+                        sizeof(std::int32_t), std::max<std::uint64_t>(tableCapacity, hostTable.size()), 0,
+                        VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT);
+          boxCodesView = context.createTexelView(boxCodes.buffers[0], VK_FORMAT_R32_SINT);
+        }
+        const bool all = tableGrows || changed.rebuilt;
+        boxCodes.elements = hostTable.size();
+        Ranges tableRanges;
+        for (const auto& [first, count] : changed.rewritten)
+          tableRanges.push_back({first * sizeof(std::int32_t), count * sizeof(std::int32_t)});
+        regionsOf(boxCodes, HostArray{hostTable.data(), hostTable.size(), sizeof(std::int32_t)}, all, tableRanges,
+                  regions);
+      }
+      boxTableUploaded = !hostTable.empty();
+    }
+    uploadRegions(regions);
+    nodeCount = static_cast<std::uint32_t>(s.nodes.size());
+  }
+
+  static std::uint64_t bytesOfArray(const HostArray& a) { return a.elements * a.size; }
 
   void writeDescriptors() {
     std::vector<VkDescriptorBufferInfo> infos;
@@ -593,6 +859,7 @@ struct VulkanTracer::Impl {
           push.layer = i;
           vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
           vkCmdDispatch(cmd, gx, gy, 1);
+          ++stats.dispatches;
         }
         if (queryPool) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queryPool.get(), i + 1);
       }
@@ -721,6 +988,7 @@ struct VulkanTracer::Impl {
         push.rayOffset = static_cast<std::uint32_t>(first * gpu::VS_RAYS_PER_GROUP);
         vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
         vkCmdDispatch(cmd, static_cast<std::uint32_t>(n), 1, 1);
+        ++stats.dispatches;
       }
       if (queryPool) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queryPool.get(), 1);
       auto toHost = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
@@ -757,7 +1025,10 @@ VulkanTracer::VulkanTracer(const VulkanOptions& options) : impl_(std::make_uniqu
 VulkanTracer::~VulkanTracer() = default;
 void VulkanTracer::upload(const SceneData& scene) { impl_->upload(scene); }
 bool VulkanTracer::boxTableInUse() const { return impl_->boxTableUploaded; }
-void VulkanTracer::upload(const SceneArrays& scene) { impl_->upload(scene); }
+void VulkanTracer::upload(const SceneArrays& scene) { impl_->uploadArrays(scene); }
+void VulkanTracer::update(const SceneData& scene, const SceneDelta& delta) { impl_->update(scene, delta); }
+std::uint64_t VulkanTracer::bytesUploaded() const { return impl_->uploadedBytes; }
+int VulkanTracer::bufferGrowths() const { return impl_->growths; }
 void VulkanTracer::uploadInstances(const SceneData& scene) { impl_->uploadInstances(scene); }
 TraceStats VulkanTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) {
   return impl_->trace(views, layers);
@@ -781,5 +1052,6 @@ int VulkanTracer::bufferCount(SplitArray array) const {
 }
 std::vector<std::string> VulkanTracer::validationMessages() const { return impl_->context.validationMessages(); }
 VulkanContext& VulkanTracer::context() { return impl_->context; }
+std::shared_ptr<VulkanContext> VulkanTracer::sharedContext() { return impl_->contextOwner; }
 
 }  // namespace vs

@@ -13,6 +13,7 @@
 
 #include "compute/cpu/cpu_tracer.h"
 #include "compute/scene_data.h"
+#include "compute/trace_types.h"
 #include "compute/shared/trace_interface.h"
 #include "compute/vulkan/vulkan_context.h"
 
@@ -28,7 +29,9 @@ struct VulkanOptions {
   std::uint64_t maxBindingBytes = 0;
   // Walk objects through a box table built on upload(const SceneData&) (one read per step, large empty boxes;
   // the same texels) instead of the brickmap hierarchy. Off, or where the table cannot be built, the shader
-  // walks the hierarchy exactly as the CPU reference does.
+  // walks the hierarchy exactly as the CPU reference does. The table is bounded by kMaxBoxTableElements
+  // (compute/box_table.h), as the CPU tracer's is, so both walk a scene the same way (a device texel limit or
+  // maxBindingBytes below it lowers it here).
   bool boxTable = true;
 };
 
@@ -60,14 +63,6 @@ inline constexpr int kSplitArrayCount = int(gpu::VS_SPLIT_ARRAY_COUNT);
 // Bindings per split array in the shader (compute/shared/trace_interface.h).
 inline constexpr int kMaxBuffersPerArray = gpu::VS_MAX_CHUNKS;
 
-struct TraceStats {
-  std::uint64_t rays = 0;      // texels traced (sum of the views' rectangle areas)
-  double gpuMs = -1.0;         // dispatch time from GPU timestamps; < 0 when the queue has none
-  std::vector<double> viewGpuMs;  // per view (views order), from timestamps; empty when the queue has none
-  double wallMs = 0.0;         // host time of the whole call: descriptor updates, dispatch, readback
-  double mraysPerSecond = 0.0; // from gpuMs when known, else from wallMs
-};
-
 struct PipelineStats {
   double createMs = 0.0;   // vkCreateComputePipelines of the trace pipeline
   bool warmCache = false;  // a pipeline-cache file for this device and driver, with pipelines in it, was loaded
@@ -97,11 +92,28 @@ class VulkanTracer {
   void upload(const SceneArrays& scene);
   // The per-frame upload when only instances moved (SceneData::moveInstance, instances added or removed):
   // copies the instances and the BVH, keeps the voxel arrays and the box table on the device. Precondition:
-  // no voxel changed since the last upload() (after edits, call upload()); throws vs::Error(BadInput) when the
-  // objects or voxel arrays differ in size from it, vs::Error(Runtime) before any upload().
+  // no voxel changed since the last upload() or update() (after edits, call update()); throws
+  // vs::Error(BadInput) when the objects or voxel arrays differ in size from it, vs::Error(Runtime) before any
+  // upload().
   void uploadInstances(const SceneData& scene);
-  // Whether the last upload() gave the shader a box table.
+  // The per-frame upload after changes to the scene last uploaded with upload(const SceneData&) or update()
+  // (SceneData::updateObject, addObject, addInstance, removeInstance, setInstanceObject, moveInstance), with
+  // what they reported (several merged with SceneDelta::merge). Copies only the delta's byte ranges, in one
+  // staging copy with a region per range (whole arrays where delta.voxelLayout); updates the box table
+  // around the delta's edited bricks only (updateBoxTable) and copies the elements it rewrote; copies the
+  // instances and the BVH by their ranges when delta.instances. An array that outgrew its buffers gets new
+  // ones with headroom (half as much again, within the binding limits), copied whole, and counted
+  // (bufferGrowths). Throws vs::Error(Runtime) before any upload() and, as upload() does, when the scene no
+  // longer fits the device (nothing is copied then). Precondition: the delta covers every change since the
+  // last upload() or update().
+  void update(const SceneData& scene, const SceneDelta& delta);
+  // Whether the last upload() or update() gave the shader a box table.
   bool boxTableInUse() const;
+  // Bytes of scene data (voxel arrays, records, BVH, box table) copied to the device since the tracer was
+  // made, by upload(), uploadInstances() and update().
+  std::uint64_t bytesUploaded() const;
+  // How many times update() gave an array new, larger buffers.
+  int bufferGrowths() const;
 
   // Traces views[i]'s texel rectangle into layers[i] (layers resized to views.size(); a layer whose size
   // differs from its view is resized and zero-filled; texels outside the rectangle keep their values).
@@ -123,6 +135,8 @@ class VulkanTracer {
   // Validation warnings and errors so far (empty when validation is off or nothing was reported).
   std::vector<std::string> validationMessages() const;
   VulkanContext& context();
+  // The same context, shared: whoever holds it keeps the device alive after the tracer is gone.
+  std::shared_ptr<VulkanContext> sharedContext();
 
  private:
   struct Impl;

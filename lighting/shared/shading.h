@@ -99,11 +99,13 @@ float vsReceiverPlaneDepth(VS_IN(ShadeView) view, ivec2 t, vec3 rel, vec3 n) {
   return s;
 }
 
-// The stored depth of texel t, clamped to the layer.
+// The stored depth of texel t of the view's window, clamped to the window. A cascade's layer is a ring over
+// its world-fixed grid (DESIGN.md §11): window texel t lives at (t + ring offset) mod w, w a power of two.
 float vsStoredDepth(VS_IN(ShadeView) view, ivec2 t) {
   int w = view.info.y;
   ivec2 c = clamp(t, ivec2(0), ivec2(w - 1));
-  return shadowTexels[view.info.x + c.y * w + c.x];
+  ivec2 s = ivec2((c.x + view.trace.y) & (w - 1), (c.y + view.trace.z) & (w - 1));
+  return shadowTexels[view.info.x + s.y * w + s.x];
 }
 
 // The receiver's depth as texel t sees it: its plane at the texel's ray, but never deeper than the receiver

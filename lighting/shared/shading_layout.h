@@ -70,7 +70,8 @@ struct ShadeView {
                    // of the encoded depth (pcss)
   ivec4 info;      // x: the layer's first texel in the layer buffer; y: its width (= height); z: VS_ENCODING_*;
                    // w: the cascade index, -1 for other views
-  ivec4 trace;     // x: VS_DEPTH_POINT_* of the stored depths; yzw: 0
+  ivec4 trace;     // x: VS_DEPTH_POINT_* of the stored depths; y, z: where window texel (0, 0) is stored (a
+                   // cascade's ring offset; 0 for other views); w: 0
 };
 
 // The pass's push block.
