@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <string>
 
 #include <tbb/blocked_range2d.h>
@@ -39,7 +42,15 @@ CpuTracer::CpuTracer(const SceneData& scene) : scene_(&scene) {}
 
 CpuTracer::~CpuTracer() = default;
 
-void CpuTracer::voxelsChanged() { tablesBuilt_ = false; }
+void CpuTracer::voxelsChanged() {
+  tablesBuilt_ = false;
+  pending_ = SceneDelta{};
+}
+
+void CpuTracer::sceneChanged(const SceneDelta& delta) {
+  if (tablesBuilt_ && (!delta.editedBricks.empty() || delta.voxelLayout || !delta.ranges.empty()))
+    pending_.merge(delta);
+}
 
 void traceCpu(const SceneData& scene, std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers,
               CpuTracePath path, int threads) {
@@ -47,10 +58,16 @@ void traceCpu(const SceneData& scene, std::span<const gpu::TraceView> views, std
 }
 
 void CpuTracer::ensureTables() {
-  // Built on the first trace after a voxel change, inside the caller's thread count.
-  if (tablesBuilt_) return;
+  // Built (or updated) on the first trace after a voxel change, inside the caller's thread count.
+  if (tablesBuilt_ && pending_.empty()) return;
   auto start = std::chrono::steady_clock::now();
-  boxTable_ = buildBoxTable(*scene_);
+  if (tablesBuilt_) {
+    tableLocal_ = !updateBoxTable(boxTable_, *scene_, pending_).rebuilt;
+  } else {
+    boxTable_ = buildBoxTable(*scene_);
+    tableLocal_ = false;
+  }
+  pending_ = SceneDelta{};
   tablesBuilt_ = true;
   tableSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -101,11 +118,23 @@ PathPlan planFor(CpuTracePath path, bool hasBoxTable) {
   return plan;
 }
 
+// One arena per thread count for the whole process, made on first use and kept: an arena made and destroyed
+// per call (every trace of a frame loop) left oneTBB's bookkeeping behind when the machine was loaded, about
+// 4 KiB a frame of resident memory outside the heap (FrameLoop.SoakKeepsMemoryFlat under ctest -j2). Several
+// threads may execute in one arena at once; its concurrency stays `threads`.
+tbb::task_arena& arenaFor(int threads) {
+  static std::mutex lock;
+  static std::map<int, std::unique_ptr<tbb::task_arena>> arenas;
+  std::lock_guard<std::mutex> guard(lock);
+  std::unique_ptr<tbb::task_arena>& arena = arenas[threads];
+  if (!arena) arena = std::make_unique<tbb::task_arena>(threads);
+  return *arena;
+}
+
 template <class Run>
 void inArena(int threads, Run&& run) {
   if (threads > 0) {
-    tbb::task_arena arena(threads);
-    arena.execute(run);
+    arenaFor(threads).execute(run);
   } else {
     run();
   }
