@@ -186,7 +186,7 @@ LBool vsRayIsFinite(VS_IN(WorldRay) ray) {
 }
 
 // 1 / d, or 0 where the ray runs parallel to the axis (d == 0): the walk's inverse direction.
-LFloat vsInverseAxis(LFloat d) { return vsSelect(d == 0.0f, LFloat(0.0f), 1.0f / d); }
+LFloat vsInverseAxis(LFloat d) { return vsSelect(d == 0.0f, LFloat(0.0f), VS_DIV(LFloat(1.0f), d)); }
 
 // One axis of a slab test against [lo, hi]: narrows [t0, t1] to where the ray lies between the two planes and
 // gives 1/d (0 where d is 0). A ray parallel to the planes is kept when lo <= o and o < hi (o <= hi when

@@ -413,23 +413,23 @@ vec4 vsMulPoint(mat4 m, vec4 p) {
 // the NDC depth. Linear-distance views: the ray starts at the eye (the light), |d| = 1, t in [0, range] is the
 // distance.
 void vsViewRay(TraceView view, ivec2 texel, VS_OUT(WorldRay) ray) {
-  VS_PRECISE float nx = (float(texel.x) + 0.5f) / float(view.info.x) * 2.0f - 1.0f;
-  VS_PRECISE float ny = (float(texel.y) + 0.5f) / float(view.info.y) * 2.0f - 1.0f;
+  VS_PRECISE float nx = VS_DIV(float(texel.x) + 0.5f, float(view.info.x)) * 2.0f - 1.0f;
+  VS_PRECISE float ny = VS_DIV(float(texel.y) + 0.5f, float(view.info.y)) * 2.0f - 1.0f;
   vec4 farH = vsMulPoint(view.clipToEye, vec4(nx, ny, 1.0f, 1.0f));
-  VS_PRECISE vec3 farP = vec3(farH.x / farH.w, farH.y / farH.w, farH.z / farH.w);
+  VS_PRECISE vec3 farP = vec3(VS_DIV(farH.x, farH.w), VS_DIV(farH.y, farH.w), VS_DIV(farH.z, farH.w));
   ray.eyeHigh = vec3(view.eyeHigh);
   ray.eyeLow = vec3(view.eyeLow);
   ray.tMin = 0.0f;
   if (view.info.z == VS_ENCODING_NDC_DEPTH) {
     vec4 nearH = vsMulPoint(view.clipToEye, vec4(nx, ny, 0.0f, 1.0f));
-    VS_PRECISE vec3 nearP = vec3(nearH.x / nearH.w, nearH.y / nearH.w, nearH.z / nearH.w);
+    VS_PRECISE vec3 nearP = vec3(VS_DIV(nearH.x, nearH.w), VS_DIV(nearH.y, nearH.w), VS_DIV(nearH.z, nearH.w));
     VS_PRECISE vec3 d = farP - nearP;
     ray.start = nearP;
     ray.d = d;
     ray.tMax = 1.0f;
   } else {
-    VS_PRECISE float len = sqrt(farP.x * farP.x + farP.y * farP.y + farP.z * farP.z);
-    VS_PRECISE vec3 d = farP / len;
+    VS_PRECISE float len = VS_SQRT(farP.x * farP.x + farP.y * farP.y + farP.z * farP.z);
+    VS_PRECISE vec3 d = vec3(VS_DIV(farP.x, len), VS_DIV(farP.y, len), VS_DIV(farP.z, len));
     ray.start = vec3(0.0f);
     ray.d = d;
     ray.tMax = view.eyeHigh.w;
@@ -449,11 +449,11 @@ float vsTexelValue(TraceView view, WorldRay ray, bool hit, float tHit, uint inst
     vec3 d = ray.d;
     if (view.info.z == VS_ENCODING_NDC_DEPTH) {
       VS_PRECISE float dd = d.x * d.x + d.y * d.y + d.z * d.z;
-      VS_PRECISE float t = tBase + (rel.x * d.x + rel.y * d.y + rel.z * d.z) / dd;
+      VS_PRECISE float t = tBase + VS_DIV(rel.x * d.x + rel.y * d.y + rel.z * d.z, dd);
       return clamp(t, 0.0f, 1.0f);
     }
     VS_PRECISE vec3 fromEye = ray.start + d * tBase + rel;
-    VS_PRECISE float dist = sqrt(fromEye.x * fromEye.x + fromEye.y * fromEye.y + fromEye.z * fromEye.z);
+    VS_PRECISE float dist = VS_SQRT(fromEye.x * fromEye.x + fromEye.y * fromEye.y + fromEye.z * fromEye.z);
     return min(dist, ray.tMax);
   }
   return tHit;

@@ -305,6 +305,15 @@ VulkanContext::VulkanContext(const VulkanContextOptions& options) {
                  std::to_string(VK_API_VERSION_MAJOR(info_.apiVersion)) + "." +
                  std::to_string(VK_API_VERSION_MINOR(info_.apiVersion)) + "; voxshadow needs 1.1");
   vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
+  // The trace shader divides and takes square roots through double, so that they round as the CPU's do
+  // (compute/shared/lanes.h, VS_DIV).
+  VkPhysicalDeviceFeatures supported{};
+  vkGetPhysicalDeviceFeatures(physical_, &supported);
+  if (!supported.shaderFloat64)
+    throwRuntime("Vulkan device " + info_.name + " lacks the feature shaderFloat64, which voxshadow's trace shader "
+                 "needs to round divisions and square roots as the CPU does; use --backend cpu");
+  VkPhysicalDeviceFeatures enabled{};
+  enabled.shaderFloat64 = VK_TRUE;
 
   float priority = 1.0f;
   auto qci = vk::make<VkDeviceQueueCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
@@ -314,6 +323,7 @@ VulkanContext::VulkanContext(const VulkanContextOptions& options) {
   auto dci = vk::make<VkDeviceCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO);
   dci.queueCreateInfoCount = 1;
   dci.pQueueCreateInfos = &qci;
+  dci.pEnabledFeatures = &enabled;
   VkDevice rawDevice = VK_NULL_HANDLE;
   vk::check(vkCreateDevice(physical_, &dci, nullptr, &rawDevice), "vkCreateDevice");
   device_ = vk::UniqueDevice(rawDevice);
