@@ -590,13 +590,16 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
         s.lighting = std::make_unique<VulkanLighting>(s.context);
       }
       LightingTraffic traffic;
-      // The pass keeps its inputs in place: a frame that moved nothing whole writes only what it changed (its
-      // traced rows and those of frames that shaded nothing, its marked pixels) and reads back its marked pixels.
-      if (shadeAll || !lightingHeld || !sameLayout) {
+      // The pass keeps its inputs in place: while the layer store keeps its layout, a frame writes only the
+      // texels traced since the pass last ran (this frame's rows and those of frames that shaded nothing), and
+      // its marked pixels' inputs, or every pixel's when everything is shaded again (a moved camera, a changed
+      // light); it reads back those pixels.
+      if (!lightingHeld || !sameLayout) {
         shaded = s.lighting->shade(inputs, push, frame.gbuffer, visible, &traffic);
       } else {
         s.pendingTexels.insert(s.pendingTexels.end(), tracedTexels.begin(), tracedTexels.end());
-        s.lighting->shadeChanged(inputs, push, frame.gbuffer, visible, {s.pendingTexels, pixels}, shaded, &traffic);
+        s.lighting->shadeChanged(inputs, push, frame.gbuffer, visible, {s.pendingTexels, pixels, shadeAll}, shaded,
+                                 &traffic);
       }
       s.pendingTexels.clear();
       s.lightingHeld = true;

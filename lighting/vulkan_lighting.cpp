@@ -175,8 +175,9 @@ struct VulkanLighting::Impl {
     for (const auto& [first, count] : changes.texelRanges)
       if (first > inputs.shadowTexels.size() || count > inputs.shadowTexels.size() - first)
         throwBadInput("lighting: a changed texel range lies outside the layer store");
-    for (std::uint32_t p : changes.pixels)
-      if (p >= pixels) throwBadInput("lighting: changed pixel " + std::to_string(p) + " outside the frame");
+    if (!changes.allPixels)
+      for (std::uint32_t p : changes.pixels)
+        if (p >= pixels) throwBadInput("lighting: changed pixel " + std::to_string(p) + " outside the frame");
     // From here the buffers are written: a failure leaves them holding no whole frame.
     heldSizes.clear();
     writeRecords(inputs, traffic);
@@ -184,6 +185,19 @@ struct VulkanLighting::Impl {
     for (const auto& [first, count] : changes.texelRanges) {
       std::memcpy(texels + first, inputs.shadowTexels.data() + first, count * sizeof(float));
       traffic.uploaded += count * sizeof(float);
+    }
+    if (changes.allPixels) {
+      fill(gpu::VS_LIGHTING_BINDING_GBUFFER, gbuffer.texels.data(), pixels * sizeof(gpu::GBufferTexel));
+      fill(gpu::VS_LIGHTING_BINDING_VISIBILITY, rayVisibility.data(), rayVisibility.size() * sizeof(std::uint32_t));
+      traffic.uploaded += pixels * sizeof(gpu::GBufferTexel) + rayVisibility.size() * sizeof(std::uint32_t);
+      dispatch(push);
+      std::memcpy(out.color.data(), buffers[gpu::VS_LIGHTING_BINDING_COLOR].mapped, pixels * sizeof(glm::vec4));
+      if (!out.shadowTerms.empty())
+        std::memcpy(out.shadowTerms.data(), buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TERMS].mapped,
+                    out.shadowTerms.size() * sizeof(float));
+      traffic.readBack += pixels * sizeof(glm::vec4) + out.shadowTerms.size() * sizeof(float);
+      heldSizes = sizes;
+      return;
     }
     auto* g = static_cast<gpu::GBufferTexel*>(buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].mapped);
     auto* v = static_cast<std::uint32_t*>(buffers[gpu::VS_LIGHTING_BINDING_VISIBILITY].mapped);

@@ -25,6 +25,10 @@ struct ShadeChanges {
   // Row-major pixels, each at most once, whose G-buffer texel or visibility answers may differ or whose colour
   // may change for another reason (a shadow lookup of a changed texel): these are read back.
   std::span<const std::uint32_t> pixels;
+  // Every pixel instead of `pixels` (the camera moved, a light changed): the whole G-buffer and visibility
+  // answers are written and every colour read back, while the layer store is still written only where
+  // texelRanges say, since it is what a frame that only moved the camera keeps.
+  bool allPixels = false;
 };
 
 class VulkanLighting {
