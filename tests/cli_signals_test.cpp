@@ -76,10 +76,11 @@ pid_t startBake(const fs::path& scene, const fs::path& dir) {
   return pid;
 }
 
-// Waits until the process has installed its SIGINT handler (bit 2 of SigCgt in /proc/<pid>/status), i.e.
-// has finished loading its libraries and entered main, or has ended. The random kills then fall into the
-// work itself, however long the start takes on a loaded machine.
-void waitUntilHandling(pid_t pid) {
+// Waits until the process has installed its handler for `sig` (bit sig-1 of SigCgt in /proc/<pid>/status;
+// SIGINT's means it has finished loading its libraries and entered main), or has ended. The random kills then
+// fall into the work itself, however long the start takes on a loaded machine. The handlers go in one by one,
+// so a test that looks at one signal waits for that one.
+void waitUntilHandling(pid_t pid, int sig = SIGINT) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   while (std::chrono::steady_clock::now() < deadline) {
     std::ifstream status("/proc/" + std::to_string(pid) + "/status");
@@ -87,7 +88,7 @@ void waitUntilHandling(pid_t pid) {
     bool zombie = false, handling = false;
     while (std::getline(status, line)) {
       if (line.rfind("State:", 0) == 0) zombie = line.find('Z') != std::string::npos;
-      if (line.rfind("SigCgt:", 0) == 0) handling = (std::stoull(line.substr(7), nullptr, 16) >> (SIGINT - 1)) & 1u;
+      if (line.rfind("SigCgt:", 0) == 0) handling = (std::stoull(line.substr(7), nullptr, 16) >> (sig - 1)) & 1u;
     }
     if (zombie || handling || !status.eof()) return;
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -240,7 +241,7 @@ TEST(CliSignals, EveryTerminatingSignalDuringAWriteRemovesTheTemporariesAndEndsB
     // A run may finish before the poll sees its write; a few tries make the signal land in one.
     for (int attempt = 0; attempt < 4 && !landed; ++attempt) {
       pid_t pid = startBakeIgnoring(scene, dir, 0);
-      waitUntilHandling(pid);
+      waitUntilHandling(pid, sig);
       EXPECT_TRUE(maskHas(signalMask(pid, "SigCgt"), sig)) << "no handler installed";
       landed = waitForWrite(pid, dir);
       if (landed) ::kill(pid, sig);

@@ -116,14 +116,6 @@ RenderOptions smallFrame() {
   return options;
 }
 
-// How many views of `now` differ from `before` in what their rays are made of.
-int changedViews(const std::vector<LightView>& before, const std::vector<LightView>& now) {
-  int n = 0;
-  for (std::size_t i = 0; i < now.size(); ++i)
-    n += i >= before.size() || std::memcmp(&now[i].trace, &before[i].trace, sizeof(gpu::TraceView)) != 0;
-  return n;
-}
-
 }  // namespace
 
 // A frame loop: a renderer traces only the texels a change touches, and what it keeps is what a new renderer
@@ -201,7 +193,9 @@ TEST(LightingFrames, OnlyChangedTexelsAreTracedAgain) {
 
     renderer.invalidateLayers();
     EXPECT_EQ(renderer.render(scene, options).layersTraced, 10) << backend;
-    if (VulkanTracer* vulkan = tracer->vulkan()) EXPECT_TRUE(vulkan->validationMessages().empty());
+    if (VulkanTracer* vulkan = tracer->vulkan()) {
+      EXPECT_TRUE(vulkan->validationMessages().empty());
+    }
   }
 }
 
