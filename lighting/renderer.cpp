@@ -610,7 +610,9 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
     } else if (lightingHeld && sameLayout) {
       // Nothing to shade: the pass's buffers still hold this frame's inputs but for the rows traced now.
       s.pendingTexels.insert(s.pendingTexels.end(), tracedTexels.begin(), tracedTexels.end());
-      s.lightingHeld = s.pendingTexels.size() < inputs.shadowTexels.size() / 16;
+      std::size_t pending = 0;
+      for (const auto& range : s.pendingTexels) pending += range.second;
+      s.lightingHeld = pending < inputs.shadowTexels.size() / 16;
       if (!s.lightingHeld) s.pendingTexels.clear();
     }
   } else if (shadeAll) {

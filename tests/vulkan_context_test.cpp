@@ -148,9 +148,34 @@ TEST(VulkanDevices, ListsAtLeastOneDevice) {
   }
   std::size_t best = vs::chooseVulkanDevice(devices, -1, "");
   EXPECT_TRUE(devices[best].hasComputeQueue);
+  EXPECT_TRUE(devices[best].shaderFloat64);
   for (const auto& d : devices) {
-    if (!d.hasComputeQueue) continue;
+    if (!d.hasComputeQueue || !d.shaderFloat64) continue;
     EXPECT_LE(int(devices[best].type), int(d.type)) << "a better device type was passed over";
+  }
+}
+
+// A GPU without shaderFloat64 (Intel Xe and Arc) is passed over for one that has it, lavapipe say; a device
+// named by index is taken as named; a list with no such device is refused naming the feature.
+TEST(VulkanDevices, AutomaticChoiceNeedsShaderFloat64) {
+  vs::VulkanDeviceInfo gpu, cpu;
+  gpu.name = "Integrated GPU without fp64";
+  gpu.type = vs::VulkanDeviceType::Integrated;
+  gpu.hasComputeQueue = true;
+  cpu.index = 1;
+  cpu.name = "llvmpipe";
+  cpu.type = vs::VulkanDeviceType::Cpu;
+  cpu.hasComputeQueue = true;
+  cpu.shaderFloat64 = true;
+  EXPECT_EQ(vs::chooseVulkanDevice({gpu, cpu}, -1, ""), 1u);
+  EXPECT_EQ(vs::chooseVulkanDevice({gpu, cpu}, 0, ""), 0u);
+  cpu.shaderFloat64 = false;
+  try {
+    vs::chooseVulkanDevice({gpu, cpu}, -1, "");
+    FAIL() << "devices without shaderFloat64 were chosen";
+  } catch (const vs::Error& e) {
+    EXPECT_EQ(e.kind(), vs::ErrorKind::Runtime);
+    EXPECT_NE(std::string(e.what()).find("shaderFloat64"), std::string::npos) << e.what();
   }
 }
 

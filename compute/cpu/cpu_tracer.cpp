@@ -121,12 +121,13 @@ PathPlan planFor(CpuTracePath path, bool hasBoxTable) {
 // One arena per thread count for the whole process, made on first use and kept: an arena made and destroyed
 // per call (every trace of a frame loop) left oneTBB's bookkeeping behind when the machine was loaded, about
 // 4 KiB a frame of resident memory outside the heap (FrameLoop.SoakKeepsMemoryFlat under ctest -j2). Several
-// threads may execute in one arena at once; its concurrency stays `threads`.
+// threads may execute in one arena at once; its concurrency stays `threads`. The map is never destroyed, so a
+// trace running while the process exits (a static destructor, a thread not joined) never meets a dead arena.
 tbb::task_arena& arenaFor(int threads) {
   static std::mutex lock;
-  static std::map<int, std::unique_ptr<tbb::task_arena>> arenas;
+  static auto* arenas = new std::map<int, std::unique_ptr<tbb::task_arena>>;
   std::lock_guard<std::mutex> guard(lock);
-  std::unique_ptr<tbb::task_arena>& arena = arenas[threads];
+  std::unique_ptr<tbb::task_arena>& arena = (*arenas)[threads];
   if (!arena) arena = std::make_unique<tbb::task_arena>(threads);
   return *arena;
 }

@@ -11,7 +11,9 @@
 //   LInt vsReadBoxCodeLanes(LBool mask, LInt index)  the box table's entry `index` where mask is set (any
 //                                                    value elsewhere; index 0 is always readable);
 //   VS_SETTLE_ALWAYS  true to settle every coordinate (cheaper than deciding for a shader, whose lanes pay
-//                     for any branch one of them takes), false to settle only near a plane (vsNearPlane).
+//                     for any branch one of them takes), false to settle only near a plane (vsNearPlane);
+//   VS_DIV            correctly rounded division, from compute/shared/lanes.h (which every includer has
+//                     included, the SIMD ones through compute/cpu/scene_arrays.h).
 // Canonical order and robust stepping: see traverse.h.
 
 // Whether a ray along one axis (origin o, inverse direction invD) has crossed the plane `coord` at parameter

@@ -129,6 +129,9 @@ VulkanDeviceInfo describe(VkPhysicalDevice pd, std::uint32_t index) {
   info.maxImageArrayLayers = p.limits.maxImageArrayLayers;
   for (int i = 0; i < 3; ++i) info.maxWorkGroupCount[i] = p.limits.maxComputeWorkGroupCount[i];
   info.timestampPeriodNs = p.limits.timestampPeriod;
+  VkPhysicalDeviceFeatures features{};
+  vkGetPhysicalDeviceFeatures(pd, &features);
+  info.shaderFloat64 = features.shaderFloat64 == VK_TRUE;
 
   VkPhysicalDeviceMemoryProperties mem{};
   vkGetPhysicalDeviceMemoryProperties(pd, &mem);
@@ -225,10 +228,12 @@ std::size_t chooseVulkanDevice(const std::vector<VulkanDeviceInfo>& devices, int
   }
   std::size_t best = devices.size();
   for (std::size_t i = 0; i < devices.size(); ++i) {
-    if (!devices[i].hasComputeQueue) continue;
+    if (!devices[i].hasComputeQueue || !devices[i].shaderFloat64) continue;
     if (best == devices.size() || typeRank(devices[i].type) < typeRank(devices[best].type)) best = i;
   }
-  if (best == devices.size()) throwRuntime(std::string(kNoDevice) + ": no device has a compute queue");
+  if (best == devices.size())
+    throwRuntime(std::string(kNoDevice) + ": no device has both a compute queue and shaderFloat64, which the trace "
+                 "shader needs; devices:" + deviceList(devices));
   return best;
 }
 
@@ -307,9 +312,7 @@ VulkanContext::VulkanContext(const VulkanContextOptions& options) {
   vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
   // The trace shader divides and takes square roots through double, so that they round as the CPU's do
   // (compute/shared/lanes.h, VS_DIV).
-  VkPhysicalDeviceFeatures supported{};
-  vkGetPhysicalDeviceFeatures(physical_, &supported);
-  if (!supported.shaderFloat64)
+  if (!info_.shaderFloat64)
     throwRuntime("Vulkan device " + info_.name + " lacks the feature shaderFloat64, which voxshadow's trace shader "
                  "needs to round divisions and square roots as the CPU does; use --backend cpu");
   VkPhysicalDeviceFeatures enabled{};

@@ -43,6 +43,8 @@ struct VulkanDeviceInfo {
   float timestampPeriodNs = 0.0f;
   std::uint32_t computeQueueFamily = 0;
   bool hasComputeQueue = false;
+  // The trace shader needs it (compute/shared/lanes.h, VS_DIV): Intel's Xe and Arc GPUs and MoltenVK lack it.
+  bool shaderFloat64 = false;
 };
 
 // Every physical device the Vulkan loader sees, in enumeration order.
@@ -51,7 +53,9 @@ std::vector<VulkanDeviceInfo> listVulkanDevices();
 
 // The device a choice picks: deviceIndex >= 0 picks that index; else a non-empty deviceName picks the first
 // device whose name contains it (case-insensitive); else the best by type (discrete > integrated > virtual >
-// CPU). Only devices with a compute queue qualify. Throws vs::Error(Runtime) "no Vulkan device found ..." when
+// CPU) among those that also have shaderFloat64, so that a GPU without it leaves the choice to lavapipe (a
+// device named by index or name is taken as named, and VulkanContext refuses it naming the feature). Only
+// devices with a compute queue qualify. Throws vs::Error(Runtime) "no Vulkan device found ..." when
 // the list is empty, vs::Error(BadInput) when the index or name matches nothing (the message lists devices).
 std::size_t chooseVulkanDevice(const std::vector<VulkanDeviceInfo>& devices, int deviceIndex,
                                const std::string& deviceName);
