@@ -4,6 +4,7 @@
 // the counts follow what changed; a long loop's memory stays flat.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -449,7 +450,10 @@ TEST(FrameLoop, SoakKeepsMemoryFlat) {
     }
     EXPECT_LE(double(peakHeap), 1.01 * double(baseHeap))
         << backend << ": heap in use grew from at most " << baseHeap << " bytes to " << peakHeap;
-    EXPECT_LE(double(peakResident), 1.01 * double(baseResident))
+    // Resident memory: 1%, but at least 2 MiB. With the heap in use flat, glibc's arenas were seen to keep
+    // 1.2 MiB more pages resident in the second half under ctest -j2 (a step, once): a leak of 1.4 KiB a frame
+    // or more still fails here, and the heap check above catches a smaller one.
+    EXPECT_LE(double(peakResident), std::max(1.01 * double(baseResident), double(baseResident) + 2048.0))
         << backend << ": resident memory grew from at most " << baseResident << " KiB to " << peakResident << " KiB";
     std::printf("%s soak: %d frames, at most %zu KiB resident and %zu heap bytes in frames %d..%d, at most %zu KiB "
                 "and %zu bytes after\n",
