@@ -603,8 +603,8 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
       }
       s.pendingTexels.clear();
       s.lightingHeld = true;
-      stats.pixelsShaded = pixelCount;
-      stats.dispatches += 1;
+      stats.pixelsShaded = traffic.pixelsShaded;
+      stats.dispatches += traffic.dispatches;
       stats.bytesUploaded += traffic.uploaded;
       stats.bytesReadBack += traffic.readBack;
     } else if (lightingHeld && sameLayout) {

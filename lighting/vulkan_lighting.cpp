@@ -101,6 +101,10 @@ struct VulkanLighting::Impl {
     vkUpdateDescriptorSets(context.device(), std::uint32_t(writes.size()), writes.data(), 0, nullptr);
   }
 
+  // Pixels shaded and dispatches recorded by the current call.
+  std::size_t shadedPixels = 0;
+  int dispatches = 0;
+
   // The sizes the buffers' contents were last written for (pixels, lights, views, texels, visibility answers);
   // empty when they hold no whole frame (none yet, replaced, or a pass that failed half-way).
   std::vector<std::size_t> heldSizes;
@@ -118,6 +122,7 @@ struct VulkanLighting::Impl {
     sized(gpu::VS_LIGHTING_BINDING_VISIBILITY, visibility * sizeof(std::uint32_t));
     sized(gpu::VS_LIGHTING_BINDING_SHADOW_TERMS, pixels * lights * sizeof(float));
     sized(gpu::VS_LIGHTING_BINDING_COLOR, pixels * sizeof(glm::vec4));
+    sized(gpu::VS_LIGHTING_BINDING_PIXELS, pixels * sizeof(std::uint32_t));
     if (replaced) writeDescriptors();
     return !replaced;
   }
@@ -207,7 +212,23 @@ struct VulkanLighting::Impl {
       for (std::size_t l = 0; l < perPixel; ++l) v[p * perPixel + l] = rayVisibility[p * perPixel + l];
     }
     traffic.uploaded += changes.pixels.size() * (sizeof(gpu::GBufferTexel) + perPixel * sizeof(std::uint32_t));
-    dispatch(push);
+    // Only the listed pixels are shaded again: every other pixel's inputs are the last frame's, and so are the
+    // colour and terms the buffers keep for it. A list of most of the frame costs more than the frame (one more
+    // read per pixel, scattered), and one too long for a row of workgroups cannot be dispatched as one.
+    const std::size_t groupSize = std::size_t(gpu::VS_LIGHTING_GROUP_WIDTH) * gpu::VS_LIGHTING_GROUP_HEIGHT;
+    const std::size_t listGroups = (changes.pixels.size() + groupSize - 1) / groupSize;
+    if (changes.pixels.empty()) {
+      // Nothing to shade: the kept colours stand.
+    } else if (2 * changes.pixels.size() <= pixels && listGroups <= context.info().maxWorkGroupCount[0]) {
+      std::memcpy(buffers[gpu::VS_LIGHTING_BINDING_PIXELS].mapped, changes.pixels.data(),
+                  changes.pixels.size() * sizeof(std::uint32_t));
+      traffic.uploaded += changes.pixels.size() * sizeof(std::uint32_t);
+      gpu::ShadePush listed = push;
+      listed.flags.y = int(changes.pixels.size());
+      dispatch(listed);
+    } else {
+      dispatch(push);
+    }
     const auto* color = static_cast<const glm::vec4*>(buffers[gpu::VS_LIGHTING_BINDING_COLOR].mapped);
     const auto* terms = static_cast<const float*>(buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TERMS].mapped);
     for (std::uint32_t p : changes.pixels) {
@@ -219,8 +240,15 @@ struct VulkanLighting::Impl {
   }
 
   void dispatch(const gpu::ShadePush& push) {
-    const std::uint32_t groupsX = (std::uint32_t(push.size.x) + gpu::VS_LIGHTING_GROUP_WIDTH - 1) / gpu::VS_LIGHTING_GROUP_WIDTH;
-    const std::uint32_t groupsY = (std::uint32_t(push.size.y) + gpu::VS_LIGHTING_GROUP_HEIGHT - 1) / gpu::VS_LIGHTING_GROUP_HEIGHT;
+    const std::uint32_t groupSize = gpu::VS_LIGHTING_GROUP_WIDTH * gpu::VS_LIGHTING_GROUP_HEIGHT;
+    std::uint32_t groupsX = (std::uint32_t(push.size.x) + gpu::VS_LIGHTING_GROUP_WIDTH - 1) / gpu::VS_LIGHTING_GROUP_WIDTH;
+    std::uint32_t groupsY = (std::uint32_t(push.size.y) + gpu::VS_LIGHTING_GROUP_HEIGHT - 1) / gpu::VS_LIGHTING_GROUP_HEIGHT;
+    if (push.flags.y > 0) {
+      groupsX = (std::uint32_t(push.flags.y) + groupSize - 1) / groupSize;
+      groupsY = 1;
+    }
+    shadedPixels += push.flags.y > 0 ? std::size_t(push.flags.y) : std::size_t(push.size.x) * std::size_t(push.size.y);
+    ++dispatches;
     context.submitAndWait([&](VkCommandBuffer cmd) {
       // The host's writes above, before the shader reads them.
       auto toShader = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
@@ -246,7 +274,11 @@ VulkanLighting::~VulkanLighting() = default;
 ShadeOutput VulkanLighting::shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                                   std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic) {
   LightingTraffic t;
+  impl_->shadedPixels = 0;
+  impl_->dispatches = 0;
   ShadeOutput out = impl_->shade(inputs, push, gbuffer, rayVisibility, t);
+  t.pixelsShaded = impl_->shadedPixels;
+  t.dispatches = impl_->dispatches;
   if (traffic) *traffic = t;
   return out;
 }
@@ -255,7 +287,11 @@ void VulkanLighting::shadeChanged(const ShadeInputs& inputs, const gpu::ShadePus
                                   std::span<const std::uint32_t> rayVisibility, const ShadeChanges& changes,
                                   ShadeOutput& out, LightingTraffic* traffic) {
   LightingTraffic t;
+  impl_->shadedPixels = 0;
+  impl_->dispatches = 0;
   impl_->shadeChanged(inputs, push, gbuffer, rayVisibility, changes, out, t);
+  t.pixelsShaded = impl_->shadedPixels;
+  t.dispatches = impl_->dispatches;
   if (traffic) *traffic = t;
 }
 

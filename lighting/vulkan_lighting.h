@@ -12,10 +12,12 @@
 
 namespace vs {
 
-// Bytes the pass moved between host and device memory in one call.
+// What the pass did in one call: bytes moved between host and device memory, pixels shaded and dispatches.
 struct LightingTraffic {
   std::uint64_t uploaded = 0;
   std::uint64_t readBack = 0;
+  std::uint64_t pixelsShaded = 0;
+  int dispatches = 0;
 };
 
 // What changed in a frame's lighting inputs since the last pass.
@@ -45,7 +47,9 @@ class VulkanLighting {
   // The pass over a frame whose inputs differ from the last shade()'s or shadeChanged()'s only where `changes`
   // says: the buffers keep the last frame's inputs, so only the changed texel ranges and pixels (their G-buffer
   // texels and visibility answers) are written, and only those pixels' colours and terms are read back into
-  // `out`, which holds the last frame's results. Every pixel is shaded (the pass reads everything in place).
+  // `out`, which holds the last frame's results. Only the listed pixels are shaded again (one invocation each)
+  // unless they are most of the frame or allPixels is set; every other pixel keeps the colour and terms the
+  // buffers hold, which are its own, since its inputs did not change.
   // Preconditions: the same sizes as the last call (pixels, lights, views, texels, visibility answers), the
   // views', lights' and push's records may differ (they are written whole); a caller that cannot say what
   // changed calls shade(). When the buffers do not hold a last frame of these sizes (none yet, or replaced),

@@ -18,14 +18,23 @@ layout(std430, set = 0, binding = VS_LIGHTING_BINDING_SHADOW_TEXELS) readonly bu
 layout(std430, set = 0, binding = VS_LIGHTING_BINDING_VISIBILITY) readonly buffer VisibilityBlock { uint rayVisibility[]; };
 layout(std430, set = 0, binding = VS_LIGHTING_BINDING_SHADOW_TERMS) writeonly buffer TermBlock { float shadowTerms[]; };
 layout(std430, set = 0, binding = VS_LIGHTING_BINDING_COLOR) writeonly buffer ColorBlock { vec4 color[]; };
+layout(std430, set = 0, binding = VS_LIGHTING_BINDING_PIXELS) readonly buffer PixelBlock { uint listedPixels[]; };
 
 layout(push_constant) uniform PushBlock { ShadePush push; };
 
 #include "lighting/shared/shading.h"
 
 void main() {
-  ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-  if (p.x >= push.size.x || p.y >= push.size.y) return;
-  int pixel = p.y * push.size.x + p.x;
+  int pixel;
+  if (push.flags.y > 0) {
+    // A list: workgroups in a row along x, one listed pixel per invocation.
+    uint listed = gl_WorkGroupID.x * (VS_LIGHTING_GROUP_WIDTH * VS_LIGHTING_GROUP_HEIGHT) + gl_LocalInvocationIndex;
+    if (listed >= uint(push.flags.y)) return;
+    pixel = int(listedPixels[listed]);
+  } else {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (p.x >= push.size.x || p.y >= push.size.y) return;
+    pixel = p.y * push.size.x + p.x;
+  }
   color[pixel] = vsShadePixel(push, pixel, gbuffer[pixel]);
 }

@@ -20,7 +20,10 @@ const uint VS_LIGHTING_BINDING_SHADOW_TEXELS = 3u;  // float: every layer, one a
 const uint VS_LIGHTING_BINDING_VISIBILITY = 4u;     // uint per pixel and light
 const uint VS_LIGHTING_BINDING_SHADOW_TERMS = 5u;   // float per pixel and light (written)
 const uint VS_LIGHTING_BINDING_COLOR = 6u;          // vec4 per pixel (written)
-const uint VS_LIGHTING_BINDING_COUNT = 7u;
+// uint per listed pixel (row-major index): a frame that shades again only the pixels its changes touched runs
+// one invocation per listed pixel (ShadePush.flags.y of them) instead of one per pixel of the frame.
+const uint VS_LIGHTING_BINDING_PIXELS = 7u;
+const uint VS_LIGHTING_BINDING_COUNT = 8u;
 
 VS_NAMESPACE_END
 

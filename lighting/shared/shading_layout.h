@@ -79,7 +79,10 @@ struct ShadePush {
   vec4 ambient;  // rgb: ambient colour x intensity; w: 0
   vec4 sky;      // rgb: the colour of pixels that hit nothing; w: 0
   ivec4 size;    // x: width, y: height (pixels); z: light count; w: VS_SHADE_* mode
-  ivec4 flags;   // x: 1 where exact visibility rays replace the shadow maps (ray-traced shadows); yzw: 0
+  // x: 1 where exact visibility rays replace the shadow maps (ray-traced shadows); y: 0 to shade every pixel,
+  // else how many pixels the list (VS_LIGHTING_BINDING_PIXELS) names, the only ones shaded (set by the Vulkan
+  // pass itself: the colours do not depend on it); zw: 0
+  ivec4 flags;
 };
 
 VS_NAMESPACE_END
