@@ -287,6 +287,8 @@ struct FrameRenderer::State {
   // `pendingTexels` (traced by frames that shaded no pixel); false when they may hold anything else.
   bool lightingHeld = false;
   std::vector<std::pair<std::size_t, std::size_t>> pendingTexels;
+  // The Vulkan pass's store holds the layers and storeTexels may be stale (traced on the device in place).
+  bool storeOnDevice = false;
 };
 
 FrameRenderer::FrameRenderer(Tracer& tracer)
@@ -297,11 +299,18 @@ FrameRenderer::~FrameRenderer() = default;
 std::vector<ShadowLayer> FrameRenderer::layers() const {
   std::vector<ShadowLayer> out;
   const State& s = *state_;
+  // Layers kept on the device are read back now, since the caller asks for them.
+  std::vector<float> deviceTexels;
+  if (s.storeOnDevice) {
+    deviceTexels.resize(s.storeTexels.size());
+    s.lighting->readStore(deviceTexels);
+  }
+  const std::vector<float>& store = s.storeOnDevice ? deviceTexels : s.storeTexels;
   for (std::size_t i = 0; i < s.storeViews.size(); ++i) {
     const int n = s.storeViews[i].resolution;
     ShadowLayer layer;
     layer.width = layer.height = n;
-    const auto first = s.storeTexels.begin() + s.storeOffsets[i];
+    const auto first = store.begin() + s.storeOffsets[i];
     layer.texels.assign(first, first + std::ptrdiff_t(n) * n);
     out.push_back(std::move(layer));
   }
@@ -383,6 +392,29 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
   if (sameLayout)
     for (std::size_t i = 0; i < views.size(); ++i)
       sameLayout = sameLayout && inputs.views[i].info.x == s.storeOffsets[std::size_t(kept[i])];
+  // On Vulkan the layers stay on the device while the store keeps its layout: texels are traced into the
+  // lighting pass's store in place, and the host's copy is left stale until someone needs it (a layout move,
+  // a layer debug view, layers()), which reads it back then.
+  const bool deviceStore = vulkan && sameLayout && s.lighting && lightingHeld && s.pendingTexels.empty() &&
+                           options.debug != DebugView::Layer && s.lighting->holdsStore(storeTexels);
+  if (s.storeOnDevice && !deviceStore) {
+    // A frame without maps keeps the store for the next one that has them (unless a change cleared it).
+    const bool storeKept = needMaps ? std::any_of(kept.begin(), kept.end(), [](int k) { return k >= 0; })
+                                    : !s.keys.empty();
+    if (!storeKept) {
+      // Nothing of the store is kept: no need to read it.
+    } else if (s.lighting && s.lighting->holdsStore(s.storeTexels.size())) {
+      LightingTraffic traffic;
+      s.lighting->readStore(s.storeTexels, &traffic);
+      stats.bytesReadBack += traffic.readBack;
+    } else {
+      // The device's store is gone with a failed pass: every layer is traced again.
+      std::fill(kept.begin(), kept.end(), -1);
+      sameLayout = false;
+      s.keys.clear();
+    }
+    s.storeOnDevice = false;
+  }
   if (sameLayout) {
     inputs.shadowTexels.swap(s.storeTexels);
   } else {
@@ -437,7 +469,20 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
   }
   // The store's rows this frame writes, for a lighting pass that keeps the store in place.
   std::vector<std::pair<std::size_t, std::size_t>> tracedTexels;
-  if (!batch.empty()) {
+  if (!batch.empty() && deviceStore) {
+    std::vector<DeviceTexelPlace> places(batch.size());
+    for (std::size_t k = 0; k < batch.size(); ++k) {
+      const int n = views[targets[k].first].resolution;
+      places[k].origin = std::int64_t(inputs.views[targets[k].first].info.x) +
+                         std::int64_t(targets[k].second.y) * n + targets[k].second.x;
+      places[k].rowLength = std::uint32_t(n);
+    }
+    const TraceStats ts =
+        vulkan->traceInto(batch, {s.lighting->storeTarget(storeTexels), storeTexels, places});
+    stats.dispatches += ts.dispatches;
+    stats.bytesUploaded += batch.size() * sizeof(gpu::TraceView);
+    s.storeOnDevice = true;
+  } else if (!batch.empty()) {
     const TraceStats ts = tracer_.traceShadow(batch, s.scratch);
     stats.dispatches += vulkan ? ts.dispatches : 1;
     for (std::size_t k = 0; k < batch.size(); ++k) {
@@ -462,7 +507,7 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
     stats.texelsTraced += ls.texels;
     if (ls.texels > 0) ++stats.layersTraced;
   }
-  if (vulkan) stats.bytesReadBack += stats.texelsTraced * sizeof(float);
+  if (vulkan && !deviceStore) stats.bytesReadBack += stats.texelsTraced * sizeof(float);
   timings.shadowMs = msSince(t0);
 
   // 3. The G-buffer: every pixel when the camera or the frame changed, else the pixels whose primary rays
@@ -598,8 +643,8 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
         shaded = s.lighting->shade(inputs, push, frame.gbuffer, visible, &traffic);
       } else {
         s.pendingTexels.insert(s.pendingTexels.end(), tracedTexels.begin(), tracedTexels.end());
-        s.lighting->shadeChanged(inputs, push, frame.gbuffer, visible, {s.pendingTexels, pixels, shadeAll}, shaded,
-                                 &traffic);
+        s.lighting->shadeChanged(inputs, push, frame.gbuffer, visible,
+                                 {s.pendingTexels, pixels, shadeAll, deviceStore}, shaded, &traffic);
       }
       s.pendingTexels.clear();
       s.lightingHeld = true;

@@ -77,7 +77,10 @@ struct VulkanLighting::Impl {
     if (need > maxRange)
       throwRuntime("lighting: a " + std::to_string(need) + "-byte buffer exceeds maxStorageBufferRange (" +
                    std::to_string(maxRange) + ") of " + context.info().name + "; render smaller or use --backend cpu");
-    buffers[b] = context.createHostBuffer(need, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    // The layer store is also where traced texels are copied on the device (VulkanTracer::traceInto).
+    const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+        (b == gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS ? VK_BUFFER_USAGE_TRANSFER_DST_BIT : VkBufferUsageFlags(0));
+    buffers[b] = context.createHostBuffer(need, usage);
     return true;
   }
 
@@ -99,6 +102,10 @@ struct VulkanLighting::Impl {
       writes[b].pBufferInfo = &infos[b];
     }
     vkUpdateDescriptorSets(context.device(), std::uint32_t(writes.size()), writes.data(), 0, nullptr);
+  }
+
+  bool holdsStore(std::size_t texels) const {
+    return heldSizes.size() == 5 && heldSizes[3] == texels && buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].buffer;
   }
 
   // Pixels shaded and dispatches recorded by the current call.
@@ -138,19 +145,25 @@ struct VulkanLighting::Impl {
   }
 
   ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
-                    std::span<const std::uint32_t> rayVisibility, LightingTraffic& traffic) {
+                    std::span<const std::uint32_t> rayVisibility, LightingTraffic& traffic, bool storeInPlace = false) {
     std::vector<std::uint32_t> clear;
     rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
     const std::size_t pixels = gbuffer.texels.size();
     const std::size_t lights = inputs.lights.size();
+    if (storeInPlace && !holdsStore(inputs.shadowTexels.size()))
+      throwRuntime("lighting: the layer store was to be read in place, but the pass holds no store of " +
+                   std::to_string(inputs.shadowTexels.size()) + " texels");
     heldSizes.clear();
+    // A kept store keeps its buffer: sizing for the same texel count replaces no buffer of it.
     sizeFor(inputs, pixels, rayVisibility.size());
     fill(gpu::VS_LIGHTING_BINDING_GBUFFER, gbuffer.texels.data(), pixels * sizeof(gpu::GBufferTexel));
     writeRecords(inputs, traffic);
-    fill(gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS, inputs.shadowTexels.data(), inputs.shadowTexels.size() * sizeof(float));
+    if (!storeInPlace) {
+      fill(gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS, inputs.shadowTexels.data(), inputs.shadowTexels.size() * sizeof(float));
+      traffic.uploaded += inputs.shadowTexels.size() * sizeof(float);
+    }
     fill(gpu::VS_LIGHTING_BINDING_VISIBILITY, rayVisibility.data(), rayVisibility.size() * sizeof(std::uint32_t));
-    traffic.uploaded += pixels * sizeof(gpu::GBufferTexel) + inputs.shadowTexels.size() * sizeof(float) +
-                        rayVisibility.size() * sizeof(std::uint32_t);
+    traffic.uploaded += pixels * sizeof(gpu::GBufferTexel) + rayVisibility.size() * sizeof(std::uint32_t);
     dispatch(push);
     ShadeOutput out;
     out.color.resize(pixels);
@@ -173,8 +186,10 @@ struct VulkanLighting::Impl {
     const std::size_t pixels = gbuffer.texels.size();
     const std::size_t lights = inputs.lights.size();
     const std::vector<std::size_t> sizes = sizesOf(inputs, pixels, rayVisibility.size());
+    if (changes.storeInPlace && !changes.texelRanges.empty())
+      throwBadInput("lighting: texel ranges given for a store read in place");
     if (sizes != heldSizes || out.color.size() != pixels || out.shadowTerms.size() != pixels * lights) {
-      out = shade(inputs, push, gbuffer, rayVisibility, traffic);
+      out = shade(inputs, push, gbuffer, rayVisibility, traffic, changes.storeInPlace);
       return;
     }
     for (const auto& [first, count] : changes.texelRanges)
@@ -268,6 +283,22 @@ struct VulkanLighting::Impl {
     });
   }
 };
+
+bool VulkanLighting::holdsStore(std::size_t texels) const { return impl_->holdsStore(texels); }
+
+VkBuffer VulkanLighting::storeTarget(std::size_t texels) const {
+  if (!impl_->holdsStore(texels))
+    throwRuntime("lighting: no layer store of " + std::to_string(texels) + " texels is held to trace into");
+  return impl_->buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].get();
+}
+
+void VulkanLighting::readStore(std::span<float> out, LightingTraffic* traffic) const {
+  if (!impl_->holdsStore(out.size()))
+    throwBadInput("lighting: the pass holds no layer store of " + std::to_string(out.size()) + " texels to read");
+  if (!out.empty())
+    std::memcpy(out.data(), impl_->buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].mapped, out.size() * sizeof(float));
+  if (traffic) traffic->readBack += out.size() * sizeof(float);
+}
 
 VulkanLighting::VulkanLighting(std::shared_ptr<VulkanContext> context) : impl_(std::make_unique<Impl>(std::move(context))) {}
 VulkanLighting::~VulkanLighting() = default;

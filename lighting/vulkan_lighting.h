@@ -31,6 +31,10 @@ struct ShadeChanges {
   // answers are written and every colour read back, while the layer store is still written only where
   // texelRanges say, since it is what a frame that only moved the camera keeps.
   bool allPixels = false;
+  // The pass's layer store already holds this frame's texels (traced into storeTarget() on the device):
+  // nothing of ShadeInputs::shadowTexels is written, which may then be stale. Precondition: holdsStore() of
+  // the frame's store size; texelRanges empty.
+  bool storeInPlace = false;
 };
 
 class VulkanLighting {
@@ -57,6 +61,17 @@ class VulkanLighting {
   void shadeChanged(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                     std::span<const std::uint32_t> rayVisibility, const ShadeChanges& changes, ShadeOutput& out,
                     LightingTraffic* traffic = nullptr);
+
+  // Whether the pass's layer store holds a whole store of `texels` texels from the last completed pass (and
+  // whatever was traced into it since): a frame may then trace into it in place (storeTarget) and shade with
+  // ShadeChanges::storeInPlace.
+  bool holdsStore(std::size_t texels) const;
+  // The layer store's device buffer (floats, ShadeInputs::shadowTexels' layout) for VulkanTracer::traceInto.
+  // Precondition: holdsStore(texels); else vs::Error(Runtime).
+  VkBuffer storeTarget(std::size_t texels) const;
+  // Copies the store's texels to `out` (as long as the held store, else vs::Error(BadInput)): a host copy,
+  // asked for by a caller, of layers that stayed on the device. Adds the bytes to traffic->readBack.
+  void readStore(std::span<float> out, LightingTraffic* traffic = nullptr) const;
 
  private:
   struct Impl;

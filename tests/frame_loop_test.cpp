@@ -264,8 +264,15 @@ int playAndCompare(const std::string& backend, unsigned seed, int frames, double
   int differing = 0;
   std::uint64_t traced = 0, all = 0;
   double keptMs = 0.0, freshMs = 0.0;
+  RenderOptions raytraced = options, layerView = options;
+  raytraced.shadows = ShadowSource::Raytraced;
+  layerView.debug = DebugView::Layer;
   for (int f = 0; f < frames; ++f) {
     game.step();
+    // Now and then a frame of another kind in between (one without shadow maps, one that shows a layer): the
+    // layers kept across it, which Vulkan keeps on the device, must still equal a new renderer's after it.
+    if (f % 50 == 25) renderer.render(game.scene, raytraced);
+    if (f % 50 == 40) renderer.render(game.scene, layerView);
     const auto t0 = std::chrono::steady_clock::now();
     const RenderedFrame& frame = renderer.render(game.scene, options);
     const auto t1 = std::chrono::steady_clock::now();

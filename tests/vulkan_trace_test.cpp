@@ -355,6 +355,70 @@ TEST_F(VulkanTrace, DemoSceneMatchesCpu) {
   expectGpuMatchesCpu(*tracer_, "demo", scene.data(), views);
 }
 
+// Rectangles traced into a device buffer (a layer store read in place) land where their places say, equal
+// to the texels read back, and touch nothing else; places that would land outside the buffer are refused
+// before anything is traced.
+TEST_F(VulkanTrace, TracedIntoADeviceBufferEqualsTheReadBack) {
+  auto dir = test::scratchDir("vulkan_trace_into");
+  writeDemoWorld(dir);
+  Scene scene = Scene::load(dir / "demo.json");
+  std::vector<gpu::TraceView> views = demoViews(scene, 64);
+  ASSERT_GE(views.size(), 2u);
+  views.resize(2);
+  tracer_->upload(scene.data());
+  std::vector<ShadowLayer> full;
+  tracer_->trace(views, full);
+  // Each view's rectangle (off the workgroup grid) into a store of rows 80 wide: view i's texel (x, y) at
+  // 7 + i * 64 * 80 + (y - 5) * 80 + x, so the rectangle's first row starts at a row's texel 7 + x0.
+  const std::uint32_t row = 80;
+  const std::uint64_t storeTexels = 2ull * 64 * row + 64;
+  std::vector<gpu::TraceView> part = views;
+  std::vector<DeviceTexelPlace> places(views.size());
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    part[i].rect = glm::ivec4(5 + int(i), 5, 50, 61);
+    places[i] = {7 + std::int64_t(i) * 64 * row - 5 * std::int64_t(row), row};
+  }
+  vk::Buffer store = tracer_->context().createHostBuffer(storeTexels * sizeof(float),
+                                                         VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  const float marker = -12345.0f;
+  std::fill_n(static_cast<float*>(store.mapped), storeTexels, marker);
+  const TraceStats stats = tracer_->traceInto(part, {store.get(), storeTexels, places});
+  EXPECT_EQ(stats.rays, 2u * 45u * 56u - 56u);
+  const auto* texels = static_cast<const float*>(store.mapped);
+  std::size_t written = 0;
+  for (std::uint64_t e = 0; e < storeTexels; ++e) written += texels[e] != marker ? 1 : 0;
+  EXPECT_EQ(written, std::size_t(stats.rays)) << "texels outside the rectangles were written";
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    ASSERT_EQ(views[i].info.x, 64);
+    ASSERT_EQ(views[i].info.y, 64);
+    const glm::ivec4 r = part[i].rect;
+    float nearest = INFINITY, farthest = -INFINITY;  // the rectangle holds geometry: not all one value
+    for (int y = r.y; y < r.w; ++y)
+      for (int x = r.x; x < r.z; ++x) {
+        const float got = texels[places[i].origin + std::int64_t(y) * row + x];
+        const float want = full[i].texels[std::size_t(y) * 64 + std::size_t(x)];
+        ASSERT_EQ(std::bit_cast<std::uint32_t>(got), std::bit_cast<std::uint32_t>(want))
+            << "view " << i << " texel (" << x << ", " << y << ")";
+        nearest = std::min(nearest, want);
+        farthest = std::max(farthest, want);
+      }
+    EXPECT_LT(nearest, farthest) << "view " << i;
+  }
+
+  // Refused: a place that reaches past the end, one that starts before the buffer, a row narrower than the rectangle,
+  // a place count that is not the view count; the buffer keeps its texels.
+  std::vector<float> before(texels, texels + storeTexels);
+  for (int bad = 0; bad < 4; ++bad) {
+    std::vector<DeviceTexelPlace> wrong = places;
+    if (bad == 0) wrong[1].origin = std::int64_t(storeTexels);
+    if (bad == 1) wrong[0].origin = -5 * std::int64_t(row) - 6;  // the rectangle's first texel at -1
+    if (bad == 2) wrong[0].rowLength = 20;
+    if (bad == 3) wrong.pop_back();
+    EXPECT_THROW(tracer_->traceInto(part, {store.get(), storeTexels, wrong}), Error) << "case " << bad;
+  }
+  EXPECT_EQ(std::memcmp(before.data(), texels, storeTexels * sizeof(float)), 0);
+}
+
 // Four rectangles traced one after another into the same layers equal one full dispatch, bit for bit.
 TEST_F(VulkanTrace, FourRectanglesEqualOneDispatchOnCity512) {
   auto scene = test::city512Scene();

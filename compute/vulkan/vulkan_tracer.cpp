@@ -742,11 +742,21 @@ struct VulkanTracer::Impl {
     vkUpdateDescriptorSets(context.device(), static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
   }
 
-  TraceStats trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) {
+  // Traces the views' rectangles into `layers` (read back) or, given `target`, copies them on the device into
+  // target->buffer at target->places (nothing read back; `layers` untouched).
+  TraceStats trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers,
+                   const DeviceTexelTarget* target = nullptr) {
     auto t0 = std::chrono::steady_clock::now();
     if (!uploaded) throwRuntime("VulkanTracer::trace called before upload()");
     TraceStats stats;
-    layers.resize(views.size());
+    if (target) {
+      if (target->buffer == VK_NULL_HANDLE) throwBadInput("VulkanTracer::traceInto: no target buffer");
+      if (target->places.size() != views.size())
+        throwBadInput("VulkanTracer::traceInto: " + std::to_string(target->places.size()) + " places for " +
+                      std::to_string(views.size()) + " views");
+    } else {
+      layers.resize(views.size());
+    }
     std::uint32_t maxW = 1, maxH = 1, dispatchW = 0, dispatchH = 0;
     std::uint64_t readbackTexels = 0;
     for (std::size_t i = 0; i < views.size(); ++i) {
@@ -760,7 +770,18 @@ struct VulkanTracer::Impl {
         throwBadInput("trace view " + std::to_string(i) + ": rect (" + std::to_string(r.x) + ", " +
                       std::to_string(r.y) + ", " + std::to_string(r.z) + ", " + std::to_string(r.w) +
                       ") must lie inside the " + std::to_string(w) + "x" + std::to_string(h) + " view");
-      if (layers[i].width != w || layers[i].height != h) {
+      if (target) {
+        // Every texel of the rectangle lands inside the buffer.
+        const DeviceTexelPlace& place = target->places[i];
+        if (r.z > r.x && r.w > r.y) {
+          const std::int64_t first = place.origin + std::int64_t(r.y) * place.rowLength + r.x;
+          const std::int64_t last = place.origin + std::int64_t(r.w - 1) * place.rowLength + (r.z - 1);
+          if (place.rowLength < std::uint32_t(r.z - r.x) || first < 0 ||
+              std::uint64_t(last) >= target->bufferTexels)
+            throwBadInput("VulkanTracer::traceInto: view " + std::to_string(i) + "'s rectangle lands outside the " +
+                          std::to_string(target->bufferTexels) + "-texel target");
+        }
+      } else if (layers[i].width != w || layers[i].height != h) {
         layers[i].width = w;
         layers[i].height = h;
         layers[i].texels.assign(std::size_t(w) * std::size_t(h), 0.0f);
@@ -803,7 +824,7 @@ struct VulkanTracer::Impl {
     for (std::size_t i = 0; i < views.size(); ++i)
       std::memcpy(static_cast<std::uint8_t*>(viewBuffer.mapped) + i * viewStride, &views[i], sizeof(gpu::TraceView));
     VkDeviceSize readbackBytes = readbackTexels * sizeof(float);
-    if (!readback.buffer || readback.size < readbackBytes || readback.size > 2 * readbackBytes) {
+    if (!target && (!readback.buffer || readback.size < readbackBytes || readback.size > 2 * readbackBytes)) {
       readback = vk::Buffer{};
       readback = context.createHostBuffer(readbackBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
     }
@@ -816,6 +837,11 @@ struct VulkanTracer::Impl {
       if (r.z == r.x || r.w == r.y) continue;
       VkBufferImageCopy c{};
       c.bufferOffset = offset;
+      if (target) {
+        const DeviceTexelPlace& place = target->places[i];
+        c.bufferOffset = VkDeviceSize(place.origin + std::int64_t(r.y) * place.rowLength + r.x) * sizeof(float);
+        c.bufferRowLength = place.rowLength;
+      }
       c.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, i, 1};
       c.imageOffset = {r.x, r.y, 0};
       c.imageExtent = {std::uint32_t(r.z - r.x), std::uint32_t(r.w - r.y), 1};
@@ -875,23 +901,25 @@ struct VulkanTracer::Impl {
       toCopy.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, image.layers};
       vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr,
                            0, nullptr, 1, &toCopy);
-      vkCmdCopyImageToBuffer(cmd, image.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.get(),
-                             static_cast<std::uint32_t>(copies.size()), copies.data());
+      vkCmdCopyImageToBuffer(cmd, image.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                             target ? target->buffer : readback.get(), static_cast<std::uint32_t>(copies.size()),
+                             copies.data());
       // Back to GENERAL for the next dispatch; the layout change keeps the texels.
       VkImageMemoryBarrier toShader = toCopy;
       toShader.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
       toShader.dstAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
       toShader.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
       toShader.newLayout = VK_IMAGE_LAYOUT_GENERAL;
+      // The copied texels, for the host and for later shaders (a target is read by the lighting pass).
       auto toHost = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
       toHost.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-      toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+      toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT | VK_ACCESS_SHADER_READ_BIT;
       vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                            0, 1, &toHost, 0, nullptr, 1, &toShader);
     });
 
-    const auto* texels = static_cast<const float*>(readback.mapped);
-    for (std::uint32_t i = 0; i < layerCount; ++i) {
+    const auto* texels = static_cast<const float*>(target ? nullptr : readback.mapped);
+    for (std::uint32_t i = 0; i < layerCount && !target; ++i) {
       const glm::ivec4& r = views[i].rect;
       int w = r.z - r.x;
       ShadowLayer& layer = layers[i];
@@ -1032,6 +1060,10 @@ int VulkanTracer::bufferGrowths() const { return impl_->growths; }
 void VulkanTracer::uploadInstances(const SceneData& scene) { impl_->uploadInstances(scene); }
 TraceStats VulkanTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) {
   return impl_->trace(views, layers);
+}
+TraceStats VulkanTracer::traceInto(std::span<const gpu::TraceView> views, const DeviceTexelTarget& target) {
+  std::vector<ShadowLayer> none;
+  return impl_->trace(views, none, &target);
 }
 TraceStats VulkanTracer::traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits) {
   if (hits.size() != rays.size())

@@ -72,6 +72,19 @@ struct PipelineStats {
   std::string cacheError;  // why the cache could not be saved, when it could not
 };
 
+// Where traceInto puts a view's rectangle: texel (x, y) of the view at element origin + y * rowLength + x of
+// the target buffer (floats).
+struct DeviceTexelPlace {
+  std::int64_t origin = 0;
+  std::uint32_t rowLength = 0;
+};
+// A buffer of floats on the tracer's device (usage TRANSFER_DST), bufferTexels long, and a place per view.
+struct DeviceTexelTarget {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  std::uint64_t bufferTexels = 0;
+  std::span<const DeviceTexelPlace> places;
+};
+
 class VulkanTracer {
  public:
   // Creates the context (device choice, validation) and the trace pipeline through the disk cache.
@@ -122,6 +135,11 @@ class VulkanTracer {
   // Preconditions: upload() was called; views[i].info.xy > 0; 0 <= rect.x0 <= rect.x1 <= width, same for y.
   // Throws vs::Error(BadInput) when a view breaks them.
   TraceStats trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers);
+  // The same trace, with the texels copied on the device into target.buffer (a layer store that a pass on this
+  // device reads in place) instead of read back: nothing crosses to the host. The copies are made visible to
+  // later transfers, shaders and host reads. Throws vs::Error(BadInput) as trace() does, and when a rectangle
+  // would land outside the buffer or a place's rowLength is narrower than its rectangle.
+  TraceStats traceInto(std::span<const gpu::TraceView> views, const DeviceTexelTarget& target);
   // Closest-hit records of rays[i] into hits[i], and any-hit answers into occluded[i] (1 where the segment
   // holds a solid voxel), as the CPU backend gives them bit for bit. One submission and one readback per call.
   // Preconditions: upload() was called; the output is as long as `rays` (else vs::Error(BadInput)).
