@@ -592,6 +592,10 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
   const gpu::ShadePush push = makeShadePush(desc, camera.width, camera.height, shadeMode(options.debug), raytraced);
   const bool shadeAll = allPixels || anyWhole || shadingChanged || lightIds != s.lightIds ||
                         frame.color.size() != pixelCount || std::memcmp(&push, &s.push, sizeof push) != 0;
+  // The pixels whose G-buffer texel or visibility answers this frame changed (marked so far), before those
+  // marked only because a shadow lookup reads a traced texel: the Vulkan pass writes only their inputs.
+  std::vector<std::uint32_t> inputPixels;
+  if (vulkan && !shadeAll) inputPixels = markedPixels(marks);
   if (!shadeAll && stats.texelsTraced > 0 && !raytraced) {
     // Per light, the views it traced in and the traced rectangles grown by its lookups' reach.
     for (std::size_t l = 0; l < lightCount; ++l) {
@@ -644,7 +648,7 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
       } else {
         s.pendingTexels.insert(s.pendingTexels.end(), tracedTexels.begin(), tracedTexels.end());
         s.lighting->shadeChanged(inputs, push, frame.gbuffer, visible,
-                                 {s.pendingTexels, pixels, shadeAll, deviceStore}, shaded, &traffic);
+                                 {s.pendingTexels, pixels, inputPixels, shadeAll, deviceStore}, shaded, &traffic);
       }
       s.pendingTexels.clear();
       s.lightingHeld = true;

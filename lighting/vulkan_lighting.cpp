@@ -195,9 +195,14 @@ struct VulkanLighting::Impl {
     for (const auto& [first, count] : changes.texelRanges)
       if (first > inputs.shadowTexels.size() || count > inputs.shadowTexels.size() - first)
         throwBadInput("lighting: a changed texel range lies outside the layer store");
-    if (!changes.allPixels)
+    if (!changes.allPixels) {
       for (std::uint32_t p : changes.pixels)
         if (p >= pixels) throwBadInput("lighting: changed pixel " + std::to_string(p) + " outside the frame");
+      if (changes.inputPixels.size() > changes.pixels.size())
+        throwBadInput("lighting: more pixels with changed inputs than pixels shaded");
+      for (std::uint32_t p : changes.inputPixels)
+        if (p >= pixels) throwBadInput("lighting: changed pixel " + std::to_string(p) + " outside the frame");
+    }
     // From here the buffers are written: a failure leaves them holding no whole frame.
     heldSizes.clear();
     writeRecords(inputs, traffic);
@@ -222,11 +227,11 @@ struct VulkanLighting::Impl {
     auto* g = static_cast<gpu::GBufferTexel*>(buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].mapped);
     auto* v = static_cast<std::uint32_t*>(buffers[gpu::VS_LIGHTING_BINDING_VISIBILITY].mapped);
     const std::size_t perPixel = rayVisibility.size() / std::max<std::size_t>(1, pixels);
-    for (std::uint32_t p : changes.pixels) {
+    for (std::uint32_t p : changes.inputPixels) {
       g[p] = gbuffer.texels[p];
       for (std::size_t l = 0; l < perPixel; ++l) v[p * perPixel + l] = rayVisibility[p * perPixel + l];
     }
-    traffic.uploaded += changes.pixels.size() * (sizeof(gpu::GBufferTexel) + perPixel * sizeof(std::uint32_t));
+    traffic.uploaded += changes.inputPixels.size() * (sizeof(gpu::GBufferTexel) + perPixel * sizeof(std::uint32_t));
     // Only the listed pixels are shaded again: every other pixel's inputs are the last frame's, and so are the
     // colour and terms the buffers keep for it. A list of most of the frame costs more than the frame (one more
     // read per pixel, scattered), and one too long for a row of workgroups cannot be dispatched as one.

@@ -27,6 +27,9 @@ struct ShadeChanges {
   // Row-major pixels, each at most once, whose G-buffer texel or visibility answers may differ or whose colour
   // may change for another reason (a shadow lookup of a changed texel): these are read back.
   std::span<const std::uint32_t> pixels;
+  // Of `pixels`, those whose G-buffer texel or visibility answers may differ: only theirs are written (the
+  // others are shaded again because a shadow lookup reads a changed texel). Row-major, each at most once.
+  std::span<const std::uint32_t> inputPixels;
   // Every pixel instead of `pixels` (the camera moved, a light changed): the whole G-buffer and visibility
   // answers are written and every colour read back, while the layer store is still written only where
   // texelRanges say, since it is what a frame that only moved the camera keeps.
