@@ -1,7 +1,10 @@
 #include "compute/tracer.h"
 
 #include <chrono>
+#include <cmath>
 #include <thread>
+
+#include <tbb/parallel_for.h>
 
 #include "compute/cpu/cpu_tracer.h"
 #include "compute/vulkan/vulkan_tracer.h"
@@ -41,6 +44,15 @@ class CpuBackend final : public Tracer {
   }
   TraceStats traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded) override {
     return timed(rays.size(), [&] { bound().traceAny(rays, occluded, options_.path, options_.threads); });
+  }
+  TraceStats traceCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
+                         std::span<gpu::RayHit> hits) override {
+    const std::uint64_t count = checkCameraTrace(camera, pixels, hits.size());
+    CpuTracer& tracer = bound();
+    return timed(count, [&] {
+      const std::vector<gpu::TraceRay> rays = cameraRays(camera, pixels);
+      tracer.traceClosest(rays, hits, options_.path, options_.threads);
+    });
   }
   CpuTracer* cpu() override { return tracer_.get(); }
 
@@ -89,6 +101,10 @@ class VulkanBackend final : public Tracer {
   TraceStats traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded) override {
     return tracer_.traceAny(rays, occluded);
   }
+  TraceStats traceCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
+                         std::span<gpu::RayHit> hits) override {
+    return tracer_.traceCamera(camera, pixels, hits);
+  }
   VulkanTracer* vulkan() override { return &tracer_; }
 
  private:
@@ -98,6 +114,41 @@ class VulkanBackend final : public Tracer {
 }  // namespace
 
 std::unique_ptr<Tracer> makeCpuTracer(const CpuTracerOptions& options) { return std::make_unique<CpuBackend>(options); }
+
+std::uint64_t checkCameraTrace(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
+                               std::size_t hitCount) {
+  const std::uint64_t width = camera.size.x, height = camera.size.y;
+  if (width == 0 || height == 0)
+    throwBadInput("traceCamera: CameraRays.size: a " + std::to_string(width) + " x " + std::to_string(height) +
+                  " frame has no pixel");
+  const std::uint64_t frame = width * height;
+  if (frame > std::numeric_limits<std::uint32_t>::max())
+    throwBadInput("traceCamera: CameraRays.size: " + std::to_string(width) + " x " + std::to_string(height) +
+                  " pixels do not fit 32-bit pixel indices");
+  const glm::vec4 members[5] = {camera.originHigh, camera.originLow, camera.forward, camera.right, camera.up};
+  const char* names[5] = {"originHigh", "originLow", "forward", "right", "up"};
+  for (int m = 0; m < 5; ++m)
+    for (int c = 0; c < 4; ++c)
+      if (!std::isfinite(members[m][c]))
+        throwBadInput(std::string("traceCamera: CameraRays.") + names[m] + ": not a finite number");
+  const std::uint64_t count = pixels.empty() ? frame : pixels.size();
+  if (hitCount != count)
+    throwBadInput("traceCamera: " + std::to_string(hitCount) + " hit records for " + std::to_string(count) + " pixels");
+  for (std::size_t k = 0; k < pixels.size(); ++k)
+    if (pixels[k] >= frame)
+      throwBadInput("traceCamera: pixels[" + std::to_string(k) + "] = " + std::to_string(pixels[k]) +
+                    " lies outside the " + std::to_string(width) + " x " + std::to_string(height) + " frame");
+  return count;
+}
+
+std::vector<gpu::TraceRay> cameraRays(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels) {
+  const std::size_t count = pixels.empty() ? std::size_t(camera.size.x) * std::size_t(camera.size.y) : pixels.size();
+  std::vector<gpu::TraceRay> rays(count);
+  tbb::parallel_for(std::size_t(0), count, [&](std::size_t k) {
+    rays[k] = gpu::vsCameraRay(camera, pixels.empty() ? std::uint32_t(k) : pixels[k]);
+  });
+  return rays;
+}
 
 void Tracer::throwNullScene() { throwBadInput("Tracer::setScene: no scene (a null pointer)"); }
 

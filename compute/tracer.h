@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "compute/scene_data.h"
+#include "compute/shared/camera_rays.h"
 #include "compute/trace_types.h"
 
 namespace vs {
@@ -76,6 +77,14 @@ class Tracer {
   virtual TraceStats traceShadow(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) = 0;
   virtual TraceStats traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits) = 0;
   virtual TraceStats traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded) = 0;
+  // The closest hits of a camera's primary rays (compute/shared/camera_rays.h), hits[k] that of pixels[k]
+  // (row-major pixel indices; an empty list: every pixel of camera.size, row by row). The Vulkan backend
+  // makes the rays on the device, so only the record and the list go up; the CPU backend makes the same rays
+  // (cameraRays) and traces them as traceClosest does: the same hits bit for bit. camera.size.z is ignored.
+  // Preconditions: setScene was called; hits has one record per traced pixel, every listed pixel lies in the
+  // frame, the record's sizes are 1.. and its numbers finite (else vs::Error(BadInput), nothing traced).
+  virtual TraceStats traceCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
+                                 std::span<gpu::RayHit> hits) = 0;
 
   // The backend's own tracer, for its statistics (the CPU fast path's table build, the Vulkan pipeline cache
   // and box table), or null for the other backend.
@@ -98,6 +107,14 @@ struct CpuTracerOptions {
   CpuTracePath path = CpuTracePath::Interleaved;
   int threads = 0;  // <= 0: every hardware thread
 };
+
+// Checks a camera trace's arguments as Tracer::traceCamera states them (vs::Error(BadInput) naming what is
+// wrong) and returns the number of rays it traces.
+std::uint64_t checkCameraTrace(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
+                               std::size_t hitCount);
+// The rays traceCamera traces, made on the host (the same bits the device makes). Preconditions: as
+// checkCameraTrace accepts.
+std::vector<gpu::TraceRay> cameraRays(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels = {});
 
 std::unique_ptr<Tracer> makeCpuTracer(const CpuTracerOptions& options = {});
 // Throws vs::Error(Runtime) when no usable Vulkan device exists (VulkanTracer; its options in

@@ -26,4 +26,17 @@ glm::dvec3 pixelDirection(const CameraFrame& camera, int x, int y) {
   return glm::normalize(camera.forward + camera.right * sx + camera.up * sy);
 }
 
+gpu::CameraRays cameraRaysOf(const CameraFrame& camera) {
+  gpu::CameraRays r{};
+  glm::vec3 high, low;
+  gpu::splitToFloats(camera.position, high, low);
+  r.originHigh = glm::vec4(high, float(camera.tanHalfFovY * camera.aspect));
+  r.originLow = glm::vec4(low, float(camera.tanHalfFovY));
+  r.forward = glm::vec4(glm::vec3(camera.forward), float(camera.nearPlane));
+  r.right = glm::vec4(glm::vec3(camera.right), float(camera.farPlane));
+  r.up = glm::vec4(glm::vec3(camera.up), 0.0f);
+  r.size = glm::uvec4(std::uint32_t(camera.width), std::uint32_t(camera.height), 0u, 0u);
+  return r;
+}
+
 }  // namespace vs

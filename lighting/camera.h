@@ -6,6 +6,7 @@
 
 #include <glm/glm.hpp>
 
+#include "compute/shared/camera_rays.h"
 #include "lighting/scene_file.h"
 
 namespace vs {
@@ -27,6 +28,11 @@ CameraFrame cameraFrame(const CameraDesc& camera, int width = 0, int height = 0)
 
 // The unit direction of pixel (x, y)'s centre; row 0 is the top of the image.
 glm::dvec3 pixelDirection(const CameraFrame& camera, int x, int y);
+
+// The record the tracers make this camera's primary rays from (compute/shared/camera_rays.h): the position
+// split into two floats, the basis, the planes and the tangents rounded to float. Its rays follow
+// pixelDirection to float precision.
+gpu::CameraRays cameraRaysOf(const CameraFrame& camera);
 
 }  // namespace vs
 

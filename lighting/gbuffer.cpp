@@ -11,33 +11,10 @@
 
 namespace vs {
 
-namespace {
-
-gpu::TraceRay primaryRay(const CameraFrame& camera, int x, int y) {
-  const glm::dvec3 d = pixelDirection(camera, x, y);
-  // Between the near and far planes, as a rasteriser clips: the cascades' splits start at `near`, so
-  // whatever the camera sees lies in one of them.
-  const double forward = glm::dot(d, camera.forward);
-  return gpu::makeTraceRay(camera.position, d, float(camera.nearPlane / forward), float(camera.farPlane / forward));
-}
-
-}  // namespace
-
-std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera) {
-  std::vector<gpu::TraceRay> rays(std::size_t(camera.width) * std::size_t(camera.height));
-  tbb::parallel_for(0, camera.height, [&](int y) {
-    for (int x = 0; x < camera.width; ++x)
-      rays[std::size_t(y) * std::size_t(camera.width) + std::size_t(x)] = primaryRay(camera, x, y);
-  });
-  return rays;
-}
+std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera) { return cameraRays(cameraRaysOf(camera)); }
 
 std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera, std::span<const std::uint32_t> pixels) {
-  std::vector<gpu::TraceRay> rays(pixels.size());
-  tbb::parallel_for(std::size_t(0), pixels.size(), [&](std::size_t k) {
-    rays[k] = primaryRay(camera, int(pixels[k] % std::uint32_t(camera.width)), int(pixels[k] / std::uint32_t(camera.width)));
-  });
-  return rays;
+  return cameraRays(cameraRaysOf(camera), pixels);
 }
 
 namespace {
@@ -110,10 +87,9 @@ void resolveGBufferPixels(const Scene& scene, const CameraFrame& camera, std::sp
 }
 
 GBuffer traceGBuffer(const Scene& scene, const CameraFrame& camera, Tracer& tracer) {
-  const std::vector<gpu::TraceRay> rays = primaryRays(camera);
-  std::vector<gpu::RayHit> hits(rays.size());
-  tracer.traceClosest(rays, hits);
-  return resolveGBuffer(scene, camera, rays, hits);
+  std::vector<gpu::RayHit> hits(std::size_t(camera.width) * std::size_t(camera.height));
+  tracer.traceCamera(cameraRaysOf(camera), {}, hits);
+  return resolveGBuffer(scene, camera, primaryRays(camera), hits);
 }
 
 namespace {

@@ -20,13 +20,14 @@ struct GBuffer {
 };
 
 // The primary ray of every pixel, row by row: from the camera position (split into two floats, as a view's
-// eye), through the pixel centre, from the near plane to the far plane (clipped as a rasteriser clips).
+// eye), through the pixel centre, from the near plane to the far plane (clipped as a rasteriser clips). The
+// rays Tracer::traceCamera traces for cameraRaysOf(camera), bit for bit (compute/shared/camera_rays.h).
 std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera);
 
 // The primary rays of the given pixels (row-major indices), in their order.
 std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera, std::span<const std::uint32_t> pixels);
 
-// Traces the primary rays and resolves each hit into world position (origin + t * direction in double),
+// Traces the primary rays (Tracer::traceCamera: made where they are traced) and resolves each hit into world position (origin + t * direction in double),
 // world face normal (the entry face through the instance's inverse transpose), the voxel's palette colour, view
 // depth and instance. Preconditions: tracer.setScene(scene.data()) was called for this scene.
 GBuffer traceGBuffer(const Scene& scene, const CameraFrame& camera, Tracer& tracer);

@@ -521,27 +521,29 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
   const bool boundsMoved = bounds.min != s.bounds.min || bounds.max != s.bounds.max;
   const bool allPixels = full || boundsMoved || !sameCamera(camera, s.camera) || !sameOptions(options, s.options);
   std::vector<std::uint8_t> marks(pixelCount, allPixels ? 1 : 0);
+  // The rays are made where they are traced (on the device on Vulkan: only the camera record and the pixel
+  // list go up); the resolve makes the same rays again on the host.
+  const gpu::CameraRays cameraRecord = cameraRaysOf(camera);
+  std::vector<std::uint32_t> primaryPixels;
   if (allPixels) {
-    const std::vector<gpu::TraceRay> rays = primaryRays(camera);
-    std::vector<gpu::RayHit> hits(rays.size());
-    const TraceStats ts = tracer_.traceClosest(rays, hits);
+    std::vector<gpu::RayHit> hits(pixelCount);
+    const TraceStats ts = tracer_.traceCamera(cameraRecord, {}, hits);
     stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
-    frame.gbuffer = resolveGBuffer(scene, camera, rays, hits);
-    stats.primaryRays = rays.size();
+    frame.gbuffer = resolveGBuffer(scene, camera, primaryRays(camera), hits);
+    stats.primaryRays = pixelCount;
   } else if (!boxes.empty()) {
     for (const Aabb& b : boxes) markBoxPixels(camera, b, marks);
-    const std::vector<std::uint32_t> pixels = markedPixels(marks);
-    if (!pixels.empty()) {
-      const std::vector<gpu::TraceRay> rays = primaryRays(camera, pixels);
-      std::vector<gpu::RayHit> hits(rays.size());
-      const TraceStats ts = tracer_.traceClosest(rays, hits);
+    primaryPixels = markedPixels(marks);
+    if (!primaryPixels.empty()) {
+      std::vector<gpu::RayHit> hits(primaryPixels.size());
+      const TraceStats ts = tracer_.traceCamera(cameraRecord, primaryPixels, hits);
       stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
-      resolveGBufferPixels(scene, camera, rays, hits, pixels, frame.gbuffer);
-      stats.primaryRays = rays.size();
+      resolveGBufferPixels(scene, camera, primaryRays(camera, primaryPixels), hits, primaryPixels, frame.gbuffer);
+      stats.primaryRays = primaryPixels.size();
     }
   }
-  if (vulkan) {
-    stats.bytesUploaded += stats.primaryRays * sizeof(gpu::TraceRay);
+  if (vulkan && stats.primaryRays > 0) {
+    stats.bytesUploaded += sizeof(gpu::CameraRays) + primaryPixels.size() * sizeof(std::uint32_t);
     stats.bytesReadBack += stats.primaryRays * sizeof(gpu::RayHit);
   }
   timings.gbufferMs = msSince(t0);

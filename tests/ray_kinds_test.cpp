@@ -1,4 +1,5 @@
-// The three ray kinds (shadow texels, and the closest-hit and any-hit rays of compute/shared/trace_rays.h) through
+// The ray kinds (shadow texels, the closest-hit and any-hit rays of compute/shared/trace_rays.h, and the camera
+// rays of compute/shared/camera_rays.h) through
 // every backend: the CPU reference (the box-table walk, one ray at a time), the CPU fast path in every lane width
 // the processor runs (scalar, AVX2, AVX-512), the portable CPU tiles (the hierarchy walk) and the Vulkan shader
 // give identical results bit for bit on a seeded battery of more than a
@@ -18,6 +19,7 @@
 #include "compute/tracer.h"
 #include "compute/vulkan/vulkan_tracer.h"
 #include "compute/cpu/cpu_tracer.h"
+#include "lighting/camera.h"
 #include "support/exact_reference.h"
 #include "support/test_scenes.h"
 #include "voxel/error.h"
@@ -521,6 +523,131 @@ TEST_F(RayKinds, UnboundedRaysReachTheEndOfTheScene) {
       EXPECT_EQ(r.hits[0].t, 2.0f) << t->backend() << " tMax " << tMax;
       EXPECT_EQ(r.occluded[0], 1u) << t->backend() << " tMax " << tMax;
     }
+  }
+  EXPECT_TRUE(vulkan_->vulkan()->validationMessages().empty());
+}
+
+// A camera looking at the scene's world box from outside it, up and to one side.
+CameraFrame cameraOnto(const Aabb& box, int width, int height) {
+  const glm::dvec3 lo(box.min), hi(box.max);
+  const glm::dvec3 centre = (lo + hi) * 0.5;
+  const double reach = glm::length(hi - lo);
+  CameraDesc desc;
+  desc.position = glm::vec3(centre + glm::dvec3(0.35, 0.3, 0.45) * reach);
+  desc.target = glm::vec3(centre);
+  desc.up = glm::vec3(0.0f, 1.0f, 0.0f);
+  desc.fovDeg = 60.0f;
+  desc.nearPlane = 0.05f * float(reach);
+  desc.farPlane = 4.0f * float(reach);
+  return cameraFrame(desc, width, height);
+}
+
+// Camera rays made where they are traced (the shader makes them on the device) give the hits of the same
+// rays made on the host and traced one by one, bit for bit, for every pixel and for a listed subset; and the
+// rays themselves follow an independent double-precision camera (position, basis, pixel centre, near and
+// far planes) to float precision, near the origin and 10^4 units out.
+TEST_F(RayKinds, CameraRaysMadeWhereTracedEqualTheHostsAndFollowTheCamera) {
+  for (glm::dvec3 offset : {glm::dvec3(0.0), glm::dvec3(1.0e4, -3.0e3, 2.0e4)}) {
+    SCOPED_TRACE("offset " + std::to_string(offset.x));
+    TestScene scene = instancedScene(offset);
+    const CameraFrame camera = cameraOnto(scene.data.worldBounds, 192, 108);
+    const gpu::CameraRays record = cameraRaysOf(camera);
+    const std::vector<gpu::TraceRay> rays = cameraRays(record);
+    ASSERT_EQ(rays.size(), std::size_t(camera.width) * std::size_t(camera.height));
+
+    // The rays against the camera in double, each from its own pixel centre.
+    double worstAngle = 0.0, worstEnds = 0.0, worstOrigin = 0.0;
+    for (int y = 0; y < camera.height; ++y)
+      for (int x = 0; x < camera.width; ++x) {
+        const gpu::TraceRay& r = rays[std::size_t(y) * std::size_t(camera.width) + std::size_t(x)];
+        const double tanY = camera.tanHalfFovY, tanX = tanY * double(camera.width) / double(camera.height);
+        const double u = ((x + 0.5) / camera.width * 2.0 - 1.0) * tanX, v = (1.0 - (y + 0.5) / camera.height * 2.0) * tanY;
+        const glm::dvec3 exact = glm::normalize(camera.forward + camera.right * u + camera.up * v);
+        const glm::dvec3 d(glm::vec3(r.direction));
+        worstAngle = std::max(worstAngle, glm::length(glm::cross(d, exact)) + std::abs(glm::length(d) - 1.0));
+        const double along = glm::dot(exact, camera.forward);
+        worstEnds = std::max({worstEnds, std::abs(double(r.originHigh.w) * along / camera.nearPlane - 1.0),
+                              std::abs(double(r.originLow.w) * along / camera.farPlane - 1.0)});
+        const glm::dvec3 o = glm::dvec3(glm::vec3(r.originHigh)) + glm::dvec3(glm::vec3(r.originLow));
+        worstOrigin = std::max(worstOrigin, glm::length(o - camera.position) / glm::length(camera.position));
+      }
+    std::printf("camera rays against the double camera: direction %.3g rad, near/far %.3g, origin %.3g (relative)\n",
+                worstAngle, worstEnds, worstOrigin);
+    EXPECT_LT(worstAngle, 1e-6);
+    EXPECT_LT(worstEnds, 1e-6);
+    EXPECT_LT(worstOrigin, 1e-12);
+
+    auto reference = makeCpuTracer({CpuTracePath::Reference, 2});
+    auto fast = makeCpuTracer();
+    reference->setScene(scene.data);
+    fast->setScene(scene.data);
+    vulkan_->setScene(scene.data);
+    std::vector<gpu::RayHit> expected(rays.size());
+    reference->traceClosest(rays, expected);
+    std::size_t hitCount = 0;
+    for (const gpu::RayHit& h : expected) hitCount += h.hit;
+    EXPECT_GT(hitCount, rays.size() / 10) << "the camera sees the scene";
+    // A listed subset, out of order and with a pixel twice, as a frame loop's marked pixels never are.
+    std::vector<std::uint32_t> pixels;
+    std::mt19937 rng(9);
+    for (int k = 0; k < 5000; ++k) pixels.push_back(std::uint32_t(rng() % rays.size()));
+    pixels.push_back(std::uint32_t(rays.size() - 1));
+    pixels.push_back(0u);
+    pixels.push_back(pixels.front());
+    for (Tracer* t : {fast.get(), vulkan_}) {
+      SCOPED_TRACE(t->backend());
+      std::vector<gpu::RayHit> hits(rays.size());
+      const TraceStats ts = t->traceCamera(record, {}, hits);
+      EXPECT_EQ(ts.rays, rays.size());
+      EXPECT_EQ(std::memcmp(hits.data(), expected.data(), hits.size() * sizeof(gpu::RayHit)), 0)
+          << "first difference: " << firstDifference(hits, expected);
+      std::vector<gpu::RayHit> listed(pixels.size());
+      t->traceCamera(record, pixels, listed);
+      std::vector<gpu::RayHit> want;
+      for (std::uint32_t p : pixels) want.push_back(expected[p]);
+      EXPECT_EQ(std::memcmp(listed.data(), want.data(), want.size() * sizeof(gpu::RayHit)), 0)
+          << "first difference: " << firstDifference(listed, want);
+    }
+  }
+  EXPECT_TRUE(vulkan_->vulkan()->validationMessages().empty());
+}
+
+TEST_F(RayKinds, BadCameraTracesAreRefused) {
+  TestScene scene = singleObjectScene(glm::dvec3(0.0));
+  auto cpu = makeCpuTracer();
+  const gpu::CameraRays good = cameraRaysOf(cameraOnto(scene.data.worldBounds, 16, 8));
+  std::vector<gpu::RayHit> hits(16 * 8);
+  EXPECT_THROW(cpu->traceCamera(good, {}, hits), Error);  // before setScene
+  cpu->setScene(scene.data);
+  vulkan_->setScene(scene.data);
+  for (Tracer* t : {cpu.get(), vulkan_}) {
+    SCOPED_TRACE(t->backend());
+    std::vector<gpu::RayHit> short_(16 * 8 - 1);
+    EXPECT_THROW(t->traceCamera(good, {}, short_), Error);
+    const std::uint32_t outside[] = {3u, 16u * 8u};
+    std::vector<gpu::RayHit> two(2);
+    try {
+      t->traceCamera(good, outside, two);
+      ADD_FAILURE() << "a pixel outside the frame was traced";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("pixels[1]"), std::string::npos) << e.what();
+    }
+    gpu::CameraRays empty = good;
+    empty.size.y = 0;
+    EXPECT_THROW(t->traceCamera(empty, {}, {}), Error);
+    gpu::CameraRays huge = good;
+    huge.size = glm::uvec4(70000u, 70000u, 0u, 0u);
+    EXPECT_THROW(t->traceCamera(huge, {}, {}), Error);
+    gpu::CameraRays nan = good;
+    nan.forward.y = std::numeric_limits<float>::quiet_NaN();
+    try {
+      t->traceCamera(nan, {}, hits);
+      ADD_FAILURE() << "a NaN camera was traced";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("CameraRays.forward"), std::string::npos) << e.what();
+    }
+    // The refusals wrote nothing into the outputs they were given.
+    for (const gpu::RayHit& h : two) EXPECT_EQ(h.hit, 0u);
   }
   EXPECT_TRUE(vulkan_->vulkan()->validationMessages().empty());
 }

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "bvh/bvh_layout.h"
+#include "compute/shared/trace_rays.h"
 #include "compute/shared/trace_view.h"
 #include "compute/vulkan/layout_probe.h"
 #include "voxel/brickmap_layout.h"
@@ -69,6 +70,9 @@ std::vector<Expected> cppLayouts() {
       {"RayHit", sizeof(RayHit),
        {VS_MEMBER(RayHit, voxel, 4), VS_MEMBER(RayHit, t, 1), VS_MEMBER(RayHit, instance, 1),
         VS_MEMBER(RayHit, material, 1), VS_MEMBER(RayHit, hit, 1)}},
+      {"CameraRays", sizeof(CameraRays),
+       {VS_MEMBER(CameraRays, originHigh, 4), VS_MEMBER(CameraRays, originLow, 4), VS_MEMBER(CameraRays, forward, 4),
+        VS_MEMBER(CameraRays, right, 4), VS_MEMBER(CameraRays, up, 4), VS_MEMBER(CameraRays, size, 4)}},
   };
 }
 

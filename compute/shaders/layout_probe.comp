@@ -23,6 +23,7 @@ layout(std430, set = 0, binding = 6) buffer InstanceProbe { InstanceRecord insta
 layout(std430, set = 0, binding = 7) buffer ViewProbe { TraceView viewProbe[]; };
 layout(std430, set = 0, binding = 8) buffer RayProbe { TraceRay rayProbe[]; };
 layout(std430, set = 0, binding = 9) buffer HitProbe { RayHit hitProbe[]; };
+layout(std430, set = 0, binding = 10) buffer CameraProbe { CameraRays cameraProbe[]; };
 
 uint S(uint s, uint e, uint k) { return 0x40000000u | (s << 16) | (e << 8) | k; }
 float F(uint s, uint e, uint k) { return uintBitsToFloat(S(s, e, k)); }
@@ -86,5 +87,12 @@ void main() {
     hitProbe[e].instance = S(9u, e, 5u);
     hitProbe[e].material = S(9u, e, 6u);
     hitProbe[e].hit = S(9u, e, 7u);
+
+    cameraProbe[e].originHigh = F4(10u, e, 0u);
+    cameraProbe[e].originLow = F4(10u, e, 4u);
+    cameraProbe[e].forward = F4(10u, e, 8u);
+    cameraProbe[e].right = F4(10u, e, 12u);
+    cameraProbe[e].up = F4(10u, e, 16u);
+    cameraProbe[e].size = U4(10u, e, 20u);
   }
 }

@@ -4,7 +4,8 @@
 // Shadow texels: one dispatch per layer: x, y cover the layer's texel rectangle (8x8 workgroups). Each
 // invocation offsets by the rectangle's origin and skips texels outside it, so a partial re-trace touches only
 // the texels it was asked for. Closest- and any-hit rays: each workgroup takes VS_RAYS_PER_GROUP consecutive
-// rays of the ray buffer from push.rayOffset.
+// rays of the ray buffer from push.rayOffset; camera dispatches as many pixels, each ray made from the camera
+// record (compute/shared/camera_rays.h).
 //
 // How the scene is read matters on llvmpipe (lavapipe), which runs 8 invocations as the lanes of one SIMD
 // register: it loads from a storage buffer at a per-invocation index one lane at a time, behind a branch per
@@ -21,6 +22,7 @@
 #include "compute/shared/trace_view.h"
 #include "compute/shared/trace_interface.h"
 #include "compute/shared/lanes.h"
+#include "compute/shared/camera_rays.h"
 
 layout(local_size_x = VS_TRACE_GROUP_WIDTH, local_size_y = VS_TRACE_GROUP_HEIGHT, local_size_z = 1) in;
 
@@ -41,6 +43,11 @@ payloadChunks[VS_MAX_CHUNKS];
 layout(std430, set = 0, binding = VS_BINDING_RAYS) readonly buffer RayBuffer { TraceRay rays[]; };
 layout(std430, set = 0, binding = VS_BINDING_HITS) writeonly buffer HitBuffer { RayHit hits[]; };
 layout(std430, set = 0, binding = VS_BINDING_OCCLUDED) writeonly buffer OccludedBuffer { uint occluded[]; };
+// Camera dispatches: the frame's camera, then (size.z of them) the row-major pixels to trace.
+layout(std430, set = 0, binding = VS_BINDING_CAMERA) readonly buffer CameraBuffer {
+  CameraRays camera;
+  uint cameraPixels[];
+};
 // Records as RGBA32UI texels (the VS_*_TEXELS of the layout headers), instance indices and node escapes
 // (Bvh::nodeEscapes) as R32UI.
 layout(set = 0, binding = VS_BINDING_OBJECTS) uniform usamplerBuffer objectTexels;
@@ -103,7 +110,7 @@ uint vsReadPayload(uint i) { VS_CHUNK_READ(uint, payloadChunks, push.payloadShif
 
 // The walk over the box table reads no array bases: that pipeline skips their fetches, unless its rays look
 // up the hit voxel's material (closest hits) down the hierarchy.
-const bool VS_READ_BASES = !VS_BOX_TABLE || VS_RAY_KIND == VS_RAY_CLOSEST;
+const bool VS_READ_BASES = !VS_BOX_TABLE || VS_RAY_KIND == VS_RAY_CLOSEST || VS_RAY_KIND == VS_RAY_CAMERA;
 ObjectRecord vsReadObject(uint i) {
   int t = int(i * VS_OBJECT_TEXELS);
   return ObjectRecord(ivec4(texelFetch(objectTexels, t)), ivec4(texelFetch(objectTexels, t + 1)),
@@ -147,6 +154,11 @@ void main() {
   }
   uint index = push.rayOffset + gl_WorkGroupID.x * VS_RAYS_PER_GROUP + gl_LocalInvocationIndex;
   if (index >= push.rayCount) return;
+  if (VS_RAY_KIND == VS_RAY_CAMERA) {
+    uint pixel = camera.size.z == 0u ? index : cameraPixels[index];
+    hits[index] = vsClosestHit(vsTraceRayToWorld(vsCameraRay(camera, pixel)));
+    return;
+  }
   WorldRay ray = vsTraceRayToWorld(rays[index]);
   if (VS_RAY_KIND == VS_RAY_CLOSEST) {
     hits[index] = vsClosestHit(ray);

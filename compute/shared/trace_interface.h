@@ -37,10 +37,11 @@ const uint VS_BINDING_NODE_ESCAPES = 13u;     // R32UI texel buffer
 const uint VS_BINDING_RAYS = 14u;             // storage buffer of TraceRay (closest- and any-hit dispatches)
 const uint VS_BINDING_HITS = 15u;             // storage buffer of RayHit (closest-hit dispatches)
 const uint VS_BINDING_OCCLUDED = 16u;         // storage buffer of uint (any-hit dispatches)
-const uint VS_BINDING_COUNT = 17u;
-// Storage buffers the shader declares: the split arrays' chunks and the three ray buffers. Within the 32 of
-// lavapipe's maxPerStageDescriptorStorageBuffers.
-const uint VS_STORAGE_BUFFER_COUNT = VS_SPLIT_ARRAY_COUNT * uint(VS_MAX_CHUNKS) + 3u;
+const uint VS_BINDING_CAMERA = 17u;           // storage buffer: a CameraRays record, then the listed pixels
+const uint VS_BINDING_COUNT = 18u;
+// Storage buffers the shader declares: the split arrays' chunks, the three ray buffers and the camera's. Within
+// the 32 of lavapipe's maxPerStageDescriptorStorageBuffers.
+const uint VS_STORAGE_BUFFER_COUNT = VS_SPLIT_ARRAY_COUNT * uint(VS_MAX_CHUNKS) + 4u;
 
 // Specialization-constant ids (see the shader for what each removes).
 const int VS_SPEC_SPLIT_BINDINGS = 0;   // bool
@@ -52,8 +53,9 @@ const int VS_SPEC_RAY_KIND = 3;         // int: VS_RAY_*
 const int VS_RAY_SHADOW_TEXEL = 0;  // one texel of the view per invocation, into the shadow image
 const int VS_RAY_CLOSEST = 1;       // one TraceRay per invocation, its RayHit out
 const int VS_RAY_ANY = 2;           // one TraceRay per invocation, 1 out where its segment holds a solid voxel
+const int VS_RAY_CAMERA = 3;        // one camera pixel per invocation, its ray made there, its RayHit out
 
-// Rays per workgroup of a closest- or any-hit dispatch: the 8 x 8 workgroup, read as one row.
+// Rays per workgroup of a closest-hit, any-hit or camera dispatch: the 8 x 8 workgroup, read as one row.
 const uint VS_RAYS_PER_GROUP = VS_TRACE_GROUP_WIDTH * VS_TRACE_GROUP_HEIGHT;
 
 // The push-constant block of one dispatch.
@@ -66,8 +68,8 @@ struct TracePush {
   uint occupancyShift;
   uint payloadShift;
   uint layer;      // the image layer a shadow-texel dispatch writes
-  uint rayOffset;  // the first ray of a closest- or any-hit dispatch
-  uint rayCount;   // rays in the whole buffer
+  uint rayOffset;  // the first ray of a closest-hit, any-hit or camera dispatch
+  uint rayCount;   // rays in the whole buffer (camera: pixels in the frame or the list)
 };
 
 VS_NAMESPACE_END
@@ -83,7 +85,12 @@ VS_OFFSET_CHECK(TracePush, layer, 28);
 VS_OFFSET_CHECK(TracePush, rayOffset, 32);
 VS_OFFSET_CHECK(TracePush, rayCount, 36);
 
-enum class RayKind : int { ShadowTexel = VS_RAY_SHADOW_TEXEL, Closest = VS_RAY_CLOSEST, Any = VS_RAY_ANY };
+enum class RayKind : int {
+  ShadowTexel = VS_RAY_SHADOW_TEXEL,
+  Closest = VS_RAY_CLOSEST,
+  Any = VS_RAY_ANY,
+  Camera = VS_RAY_CAMERA,
+};
 
 // A trace pipeline variant, by its named options (the specialization constants above).
 struct TracePipelineOptions {

@@ -1,5 +1,6 @@
-// trace_rays.h: the records of the two ray kinds besides the shadow texel (DESIGN.md §6), readable as C++ and
-// GLSL: a ray given by its caller, and the closest-hit record. Any-hit rays read the same TraceRay and answer
+// trace_rays.h: the records of the ray kinds besides the shadow texel (DESIGN.md §6), readable as C++ and
+// GLSL: a ray given by its caller, the closest-hit record, and a camera whose primary rays are made where they
+// are traced (compute/shared/camera_rays.h). Any-hit rays read the same TraceRay and answer
 // one word (1: some solid voxel lies in [tMin, tMax]).
 #ifndef VOXSHADOW_TRACE_RAYS_H
 #define VOXSHADOW_TRACE_RAYS_H
@@ -36,6 +37,17 @@ struct RayHit {
   uint hit;       // 1 on a hit
 };
 
+// A camera's pixel rays, eye-relative: the camera position in two floats (as a view's eye, DESIGN.md §6), its
+// unit basis in float, and the frame's size. Every member is 16-byte aligned, so std140 and std430 agree.
+struct CameraRays {
+  vec4 originHigh;  // xyz: the camera position rounded to float; w: tan(vertical half angle) * aspect
+  vec4 originLow;   // xyz: position - originHigh, rounded; w: tan(vertical half angle)
+  vec4 forward;     // xyz: unit, toward the target; w: the near plane's distance
+  vec4 right;       // xyz: unit; w: the far plane's distance
+  vec4 up;          // xyz: unit, orthogonal to forward and right; w: 0
+  uvec4 size;       // x: width, y: height (pixels), z: listed pixels (0: every pixel, row-major), w: 0
+};
+
 VS_NAMESPACE_END
 
 #ifndef VS_GLSL
@@ -59,6 +71,12 @@ VS_OFFSET_CHECK(RayHit, t, 16);
 VS_OFFSET_CHECK(RayHit, instance, 20);
 VS_OFFSET_CHECK(RayHit, material, 24);
 VS_OFFSET_CHECK(RayHit, hit, 28);
+VS_LAYOUT_CHECK(CameraRays, 96);
+VS_OFFSET_CHECK(CameraRays, originLow, 16);
+VS_OFFSET_CHECK(CameraRays, forward, 32);
+VS_OFFSET_CHECK(CameraRays, right, 48);
+VS_OFFSET_CHECK(CameraRays, up, 64);
+VS_OFFSET_CHECK(CameraRays, size, 80);
 }  // namespace vs::gpu
 #endif
 

@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "compute/box_table.h"
+#include "compute/tracer.h"
 #include "compute/vulkan/pipeline_cache.h"
 #include "shadow_trace.spv.h"
 #include "compute/shared/trace_interface.h"
@@ -29,9 +30,10 @@ constexpr std::uint32_t kViewsBinding = gpu::VS_BINDING_VIEW, kImageBinding = gp
 constexpr std::uint32_t kBoxCodesBinding = gpu::VS_BINDING_BOX_TABLE, kEscapesBinding = gpu::VS_BINDING_NODE_ESCAPES;
 constexpr const char* kSplitNames[kSplitArrayCount] = {"regionTable", "regions", "sectors", "bricks", "occupancy",
                                                        "payload"};
-// The ray buffers, bound as single storage buffers.
-constexpr std::uint32_t kRayBindings[3] = {gpu::VS_BINDING_RAYS, gpu::VS_BINDING_HITS, gpu::VS_BINDING_OCCLUDED};
-bool isRayBinding(std::uint32_t b) { return b == kRayBindings[0] || b == kRayBindings[1] || b == kRayBindings[2]; }
+// The ray buffers and the camera's, bound as single storage buffers.
+constexpr std::uint32_t kRayBindings[4] = {gpu::VS_BINDING_RAYS, gpu::VS_BINDING_HITS, gpu::VS_BINDING_OCCLUDED,
+                                           gpu::VS_BINDING_CAMERA};
+bool isRayBinding(std::uint32_t b) { return std::find(std::begin(kRayBindings), std::end(kRayBindings), b) != std::end(kRayBindings); }
 
 using gpu::TracePush;
 using gpu::TracePipelineOptions;
@@ -155,8 +157,9 @@ struct VulkanTracer::Impl {
   vk::Buffer viewBuffer;
   vk::Buffer readback;
   vk::Image image;
-  // Closest- and any-hit dispatches: the rays in, the results out (host-visible, grown as needed).
-  vk::Buffer rayBuffer, hitBuffer, occludedBuffer;
+  // Closest- and any-hit dispatches: the rays in, the results out (host-visible, grown as needed); camera
+  // dispatches: the camera record and the listed pixels in.
+  vk::Buffer rayBuffer, hitBuffer, occludedBuffer, cameraBuffer;
 
   explicit Impl(const VulkanOptions& o)
       : options(o),
@@ -720,8 +723,8 @@ struct VulkanTracer::Impl {
       w.pTexelBufferView = &texelViews[t];
       writes.push_back(w);
     }
-    const vk::Buffer* rayBuffers[3] = {&rayBuffer, &hitBuffer, &occludedBuffer};
-    for (int r = 0; r < 3; ++r) {
+    const vk::Buffer* rayBuffers[4] = {&rayBuffer, &hitBuffer, &occludedBuffer, &cameraBuffer};
+    for (int r = 0; r < 4; ++r) {
       VkDescriptorBufferInfo* info = bufferInfo(rayBuffers[r]->buffer ? rayBuffers[r] : nullptr);
       auto rw = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
       rw.dstSet = descriptorSet;
@@ -960,30 +963,43 @@ struct VulkanTracer::Impl {
   // Closest- or any-hit rays: the rays go up through a host-visible buffer, each workgroup takes
   // VS_RAYS_PER_GROUP of them, and the results come back the same way; `out` receives rays.size() results of
   // `resultBytes` each.
-  TraceStats traceRays(gpu::RayKind kind, std::span<const gpu::TraceRay> rays, void* out, std::size_t resultBytes) {
+  // Camera rays (kind Camera, `rays` empty): the camera record and its listed pixels go up instead, and the
+  // shader makes each ray (compute/shared/camera_rays.h); `rayCount` results come back.
+  TraceStats traceRays(gpu::RayKind kind, std::span<const gpu::TraceRay> rays, void* out, std::size_t resultBytes,
+                       const gpu::CameraRays* camera = nullptr, std::span<const std::uint32_t> pixels = {},
+                       std::uint64_t rayCount = 0) {
     auto t0 = std::chrono::steady_clock::now();
     if (!uploaded) throwRuntime("VulkanTracer: rays traced before upload()");
+    if (kind != gpu::RayKind::Camera) rayCount = rays.size();
     TraceStats stats;
-    stats.rays = rays.size();
-    if (rays.empty()) {
+    stats.rays = rayCount;
+    if (rayCount == 0) {
       stats.wallMs = msSince(t0);
       return stats;
     }
-    if (rays.size() > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
-      throwBadInput("trace of " + std::to_string(rays.size()) + " rays: more than 2^32 in one call");
+    if (rayCount > std::uint64_t(std::numeric_limits<std::uint32_t>::max()))
+      throwBadInput("trace of " + std::to_string(rayCount) + " rays: more than 2^32 in one call");
     const VulkanDeviceInfo& info = context.info();
-    const VkDeviceSize rayBytes = rays.size() * sizeof(gpu::TraceRay);
-    const VkDeviceSize outBytes = rays.size() * resultBytes;
+    const VkDeviceSize outBytes = rayCount * resultBytes;
     auto ensure = [&](vk::Buffer& b, VkDeviceSize bytes) {
       if (!b.buffer || b.size < bytes || b.size > 4 * bytes) {
         b = vk::Buffer{};
         b = context.createHostBuffer(bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
       }
     };
-    ensure(rayBuffer, rayBytes);
-    vk::Buffer& results = kind == gpu::RayKind::Closest ? hitBuffer : occludedBuffer;
+    if (kind == gpu::RayKind::Camera) {
+      const VkDeviceSize cameraBytes = sizeof(gpu::CameraRays) + std::max<VkDeviceSize>(pixels.size_bytes(), 4);
+      ensure(cameraBuffer, cameraBytes);
+      std::memcpy(cameraBuffer.mapped, camera, sizeof(gpu::CameraRays));
+      if (!pixels.empty())
+        std::memcpy(static_cast<char*>(cameraBuffer.mapped) + sizeof(gpu::CameraRays), pixels.data(), pixels.size_bytes());
+    } else {
+      const VkDeviceSize rayBytes = rays.size() * sizeof(gpu::TraceRay);
+      ensure(rayBuffer, rayBytes);
+      std::memcpy(rayBuffer.mapped, rays.data(), rayBytes);
+    }
+    vk::Buffer& results = kind == gpu::RayKind::Any ? occludedBuffer : hitBuffer;
     ensure(results, outBytes);
-    std::memcpy(rayBuffer.mapped, rays.data(), rayBytes);
     // The shadow image and the view are bound whatever the kind: a placeholder where no trace made them yet.
     if (!image.image) image = context.createStorageImage(1, 1, 1);
     if (!viewBuffer.buffer) {
@@ -992,14 +1008,14 @@ struct VulkanTracer::Impl {
     }
     writeDescriptors();
 
-    const std::uint64_t groups = (rays.size() + gpu::VS_RAYS_PER_GROUP - 1) / gpu::VS_RAYS_PER_GROUP;
+    const std::uint64_t groups = (rayCount + gpu::VS_RAYS_PER_GROUP - 1) / gpu::VS_RAYS_PER_GROUP;
     const std::uint64_t groupsPerDispatch = info.maxWorkGroupCount[0];
     VkPipeline pipe = variant(TracePipelineOptions{.splitBindings = splitBindings(),
                                                    .boxTable = boxTableUploaded,
                                                    .depthAtCenter = false,
                                                    .rayKind = kind});
     TracePush push = scenePush();
-    push.rayCount = static_cast<std::uint32_t>(rays.size());
+    push.rayCount = static_cast<std::uint32_t>(rayCount);
     ensureQueries(2);
     context.submitAndWait([&](VkCommandBuffer cmd) {
       barrierBeforeDispatch(cmd);
@@ -1076,6 +1092,13 @@ TraceStats VulkanTracer::traceAny(std::span<const gpu::TraceRay> rays, std::span
     throwBadInput("traceAny: " + std::to_string(occluded.size()) + " results for " + std::to_string(rays.size()) +
                   " rays");
   return impl_->traceRays(gpu::RayKind::Any, rays, occluded.data(), sizeof(std::uint32_t));
+}
+TraceStats VulkanTracer::traceCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
+                                     std::span<gpu::RayHit> hits) {
+  const std::uint64_t count = checkCameraTrace(camera, pixels, hits.size());
+  gpu::CameraRays record = camera;
+  record.size.z = static_cast<std::uint32_t>(pixels.size());
+  return impl_->traceRays(gpu::RayKind::Camera, {}, hits.data(), sizeof(gpu::RayHit), &record, pixels, count);
 }
 const VulkanDeviceInfo& VulkanTracer::device() const { return impl_->context.info(); }
 const PipelineStats& VulkanTracer::pipelineStats() const { return impl_->pipelineStats; }

@@ -14,6 +14,7 @@
 #include "compute/cpu/cpu_tracer.h"
 #include "compute/scene_data.h"
 #include "compute/trace_types.h"
+#include "compute/shared/camera_rays.h"
 #include "compute/shared/trace_interface.h"
 #include "compute/vulkan/vulkan_context.h"
 
@@ -145,6 +146,9 @@ class VulkanTracer {
   // Preconditions: upload() was called; the output is as long as `rays` (else vs::Error(BadInput)).
   TraceStats traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits);
   TraceStats traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded);
+  // Tracer::traceCamera: the rays made on the device from the record; only it and the pixel list go up.
+  TraceStats traceCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
+                         std::span<gpu::RayHit> hits);
 
   const VulkanDeviceInfo& device() const;
   const PipelineStats& pipelineStats() const;
