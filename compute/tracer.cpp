@@ -1,5 +1,6 @@
 #include "compute/tracer.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -49,9 +50,21 @@ class CpuBackend final : public Tracer {
                          std::span<gpu::RayHit> hits) override {
     const std::uint64_t count = checkCameraTrace(camera, pixels, hits.size());
     CpuTracer& tracer = bound();
+    // In slices through one kept buffer per calling thread: a whole frame's rays in fresh pages cost more to
+    // fault in than to make, and a slice of this many rays still spreads over every thread. (Named through a
+    // reference: the workers that fill it must write the caller's buffer, not their own.)
+    constexpr std::size_t kSlice = std::size_t(1) << 16;
+    thread_local std::vector<gpu::TraceRay> callerSlice;
+    std::vector<gpu::TraceRay>& slice = callerSlice;
     return timed(count, [&] {
-      const std::vector<gpu::TraceRay> rays = cameraRays(camera, pixels);
-      tracer.traceClosest(rays, hits, options_.path, options_.threads);
+      for (std::size_t first = 0; first < count; first += kSlice) {
+        const std::size_t n = std::min<std::size_t>(kSlice, count - first);
+        slice.resize(n);
+        tbb::parallel_for(std::size_t(0), n, [&](std::size_t k) {
+          slice[k] = gpu::vsCameraRay(camera, pixels.empty() ? std::uint32_t(first + k) : pixels[first + k]);
+        });
+        tracer.traceClosest(slice, hits.subspan(first, n), options_.path, options_.threads);
+      }
     });
   }
   CpuTracer* cpu() override { return tracer_.get(); }

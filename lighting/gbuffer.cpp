@@ -43,9 +43,10 @@ std::vector<InstanceFrame> instanceFrames(const Scene& scene) {
 }
 
 gpu::GBufferTexel resolveHit(const std::vector<InstanceFrame>& frames, const CameraFrame& camera,
-                             const gpu::TraceRay& r, const gpu::RayHit& h) {
+                             const gpu::CameraRays& rays, std::uint32_t pixel, const gpu::RayHit& h) {
   gpu::GBufferTexel t{};
   if (h.hit == 0u) return t;
+  const gpu::TraceRay r = gpu::vsCameraRay(rays, pixel);
   if (h.instance >= frames.size()) throwRuntime("G-buffer: a hit names instance " + std::to_string(h.instance));
   const InstanceFrame& f = frames[h.instance];
   const glm::dvec3 origin = glm::dvec3(glm::vec3(r.originHigh)) + glm::dvec3(glm::vec3(r.originLow));
@@ -64,32 +65,40 @@ gpu::GBufferTexel resolveHit(const std::vector<InstanceFrame>& frames, const Cam
 
 }  // namespace
 
-GBuffer resolveGBuffer(const Scene& scene, const CameraFrame& camera, const std::vector<gpu::TraceRay>& rays,
-                       const std::vector<gpu::RayHit>& hits) {
-  GBuffer g;
+void resolveGBuffer(const Scene& scene, const CameraFrame& camera, std::span<const gpu::RayHit> hits, GBuffer& g) {
+  const std::size_t count = std::size_t(camera.width) * std::size_t(camera.height);
+  if (hits.size() != count)
+    throwBadInput("G-buffer: " + std::to_string(hits.size()) + " hits for " + std::to_string(count) + " pixels");
   g.width = camera.width;
   g.height = camera.height;
-  g.texels.assign(hits.size(), gpu::GBufferTexel{});
+  g.texels.resize(count);
   const std::vector<InstanceFrame> frames = instanceFrames(scene);
-  tbb::parallel_for(std::size_t(0), hits.size(),
-                    [&](std::size_t i) { g.texels[i] = resolveHit(frames, camera, rays[i], hits[i]); });
-  return g;
+  const gpu::CameraRays rays = cameraRaysOf(camera);
+  tbb::parallel_for(std::size_t(0), count, [&](std::size_t i) {
+    g.texels[i] = resolveHit(frames, camera, rays, std::uint32_t(i), hits[i]);
+  });
 }
 
-void resolveGBufferPixels(const Scene& scene, const CameraFrame& camera, std::span<const gpu::TraceRay> rays,
-                          std::span<const gpu::RayHit> hits, std::span<const std::uint32_t> pixels, GBuffer& g) {
-  if (rays.size() != pixels.size() || hits.size() != pixels.size() || g.width != camera.width ||
-      g.height != camera.height || g.texels.size() != std::size_t(camera.width) * std::size_t(camera.height))
-    throwBadInput("G-buffer: rays, hits, pixels and the G-buffer disagree on sizes");
+void resolveGBufferPixels(const Scene& scene, const CameraFrame& camera, std::span<const gpu::RayHit> hits,
+                          std::span<const std::uint32_t> pixels, GBuffer& g) {
+  if (hits.size() != pixels.size() || g.width != camera.width || g.height != camera.height ||
+      g.texels.size() != std::size_t(camera.width) * std::size_t(camera.height))
+    throwBadInput("G-buffer: hits, pixels and the G-buffer disagree on sizes");
   const std::vector<InstanceFrame> frames = instanceFrames(scene);
-  tbb::parallel_for(std::size_t(0), pixels.size(),
-                    [&](std::size_t k) { g.texels[pixels[k]] = resolveHit(frames, camera, rays[k], hits[k]); });
+  const gpu::CameraRays rays = cameraRaysOf(camera);
+  for (std::uint32_t p : pixels)
+    if (p >= g.texels.size()) throwBadInput("G-buffer: pixel " + std::to_string(p) + " outside the frame");
+  tbb::parallel_for(std::size_t(0), pixels.size(), [&](std::size_t k) {
+    g.texels[pixels[k]] = resolveHit(frames, camera, rays, pixels[k], hits[k]);
+  });
 }
 
 GBuffer traceGBuffer(const Scene& scene, const CameraFrame& camera, Tracer& tracer) {
   std::vector<gpu::RayHit> hits(std::size_t(camera.width) * std::size_t(camera.height));
   tracer.traceCamera(cameraRaysOf(camera), {}, hits);
-  return resolveGBuffer(scene, camera, primaryRays(camera), hits);
+  GBuffer g;
+  resolveGBuffer(scene, camera, hits, g);
+  return g;
 }
 
 namespace {
@@ -136,14 +145,20 @@ gpu::TraceRay visibilityRay(const gpu::GBufferTexel& g, const gpu::ShadeLight& l
 
 std::vector<gpu::TraceRay> visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights,
                                           std::span<const float> maxLength, const Aabb& worldBounds) {
+  std::vector<gpu::TraceRay> rays;
+  visibilityRays(gbuffer, lights, maxLength, worldBounds, rays);
+  return rays;
+}
+
+void visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights, std::span<const float> maxLength,
+                    const Aabb& worldBounds, std::vector<gpu::TraceRay>& rays) {
   const std::size_t lightCount = lights.size();
-  std::vector<gpu::TraceRay> rays(gbuffer.texels.size() * lightCount);
+  rays.resize(gbuffer.texels.size() * lightCount);
   tbb::parallel_for(std::size_t(0), gbuffer.texels.size(), [&](std::size_t i) {
     for (std::size_t l = 0; l < lightCount; ++l)
       rays[i * lightCount + l] =
           visibilityRay(gbuffer.texels[i], lights[l], l < maxLength.size() ? maxLength[l] : 0.0f, worldBounds);
   });
-  return rays;
 }
 
 std::vector<gpu::TraceRay> visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights,

@@ -32,15 +32,16 @@ std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera, std::span<cons
 // depth and instance. Preconditions: tracer.setScene(scene.data()) was called for this scene.
 GBuffer traceGBuffer(const Scene& scene, const CameraFrame& camera, Tracer& tracer);
 
-// The same from closest-hit records already traced (rays as primaryRays gives them).
-GBuffer resolveGBuffer(const Scene& scene, const CameraFrame& camera, const std::vector<gpu::TraceRay>& rays,
-                       const std::vector<gpu::RayHit>& hits);
+// The same from closest-hit records already traced (hits[i] that of pixel i's primary ray), written into g
+// (its storage reused: a frame loop allocates nothing here). Each pixel's ray is made again from the camera
+// (cameraRaysOf, vsCameraRay): the ray that was traced, bit for bit.
+void resolveGBuffer(const Scene& scene, const CameraFrame& camera, std::span<const gpu::RayHit> hits, GBuffer& g);
 
-// Resolves the closest hits of the given pixels' primary rays (primaryRays(camera, pixels)) into those texels of
-// g, leaving the others as they are. Preconditions: g sized for the camera; rays, hits, pixels of one length
+// Resolves the closest hits of the given pixels' primary rays (hits[k] that of pixels[k]) into those texels of
+// g, leaving the others as they are. Preconditions: g sized for the camera; hits and pixels of one length
 // (else vs::Error(BadInput)).
-void resolveGBufferPixels(const Scene& scene, const CameraFrame& camera, std::span<const gpu::TraceRay> rays,
-                          std::span<const gpu::RayHit> hits, std::span<const std::uint32_t> pixels, GBuffer& g);
+void resolveGBufferPixels(const Scene& scene, const CameraFrame& camera, std::span<const gpu::RayHit> hits,
+                          std::span<const std::uint32_t> pixels, GBuffer& g);
 
 // One visibility ray per pixel and light (pixel * lights + light), toward the light: from the receiver moved
 // off its face by a thousandth of its voxel, to the light (spot, point) or out of the scene bounds
@@ -48,6 +49,9 @@ void resolveGBufferPixels(const Scene& scene, const CameraFrame& camera, std::sp
 // hit, facing away from the light, or of a light that needs no ray get an empty ray (tMax < tMin: clear).
 std::vector<gpu::TraceRay> visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights,
                                           std::span<const float> maxLength, const Aabb& worldBounds);
+// The same into `rays` (resized; its storage reused).
+void visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights, std::span<const float> maxLength,
+                    const Aabb& worldBounds, std::vector<gpu::TraceRay>& rays);
 // The same for the given pixels only: ray k * lights + l is pixel pixels[k]'s ray toward light l.
 std::vector<gpu::TraceRay> visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights,
                                           std::span<const float> maxLength, const Aabb& worldBounds,

@@ -278,6 +278,8 @@ struct FrameRenderer::State {
   std::vector<std::uint32_t> visible;  // per pixel and light: 1 clear (empty: no light needs rays)
   RenderedFrame frame;
   std::vector<ShadowLayer> scratch;    // trace pieces, reused
+  std::vector<gpu::RayHit> hits;       // primary hits, reused
+  std::vector<gpu::TraceRay> rays;     // visibility rays, reused
   gpu::ShadePush push{};
   Aabb bounds;  // the world's bounds at the kept frame
 
@@ -525,20 +527,23 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
   // list go up); the resolve makes the same rays again on the host.
   const gpu::CameraRays cameraRecord = cameraRaysOf(camera);
   std::vector<std::uint32_t> primaryPixels;
+  // Per-frame arrays keep their storage across frames: fresh pages of a whole frame's rays and hits cost more
+  // to fault in than to fill.
+  std::vector<gpu::RayHit>& hits = s.hits;
   if (allPixels) {
-    std::vector<gpu::RayHit> hits(pixelCount);
+    hits.resize(pixelCount);
     const TraceStats ts = tracer_.traceCamera(cameraRecord, {}, hits);
     stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
-    frame.gbuffer = resolveGBuffer(scene, camera, primaryRays(camera), hits);
+    resolveGBuffer(scene, camera, hits, frame.gbuffer);
     stats.primaryRays = pixelCount;
   } else if (!boxes.empty()) {
     for (const Aabb& b : boxes) markBoxPixels(camera, b, marks);
     primaryPixels = markedPixels(marks);
     if (!primaryPixels.empty()) {
-      std::vector<gpu::RayHit> hits(primaryPixels.size());
+      hits.resize(primaryPixels.size());
       const TraceStats ts = tracer_.traceCamera(cameraRecord, primaryPixels, hits);
       stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
-      resolveGBufferPixels(scene, camera, primaryRays(camera, primaryPixels), hits, primaryPixels, frame.gbuffer);
+      resolveGBufferPixels(scene, camera, hits, primaryPixels, frame.gbuffer);
       stats.primaryRays = primaryPixels.size();
     }
   }
@@ -558,7 +563,9 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
   std::vector<std::uint32_t> visible;
   if (needRays) {
     if (allPixels || raysChanged) {
-      std::vector<gpu::TraceRay> rays = visibilityRays(frame.gbuffer, inputs.lights, inputs.rayLength, scene.worldBounds());
+      std::vector<gpu::TraceRay>& rays = s.rays;
+      visibilityRays(frame.gbuffer, inputs.lights, inputs.rayLength, scene.worldBounds(), rays);
+      visible.swap(s.visible);
       visible.resize(rays.size());
       const TraceStats ts = tracer_.traceAny(rays, visible);
       stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;

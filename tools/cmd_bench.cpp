@@ -157,6 +157,7 @@ constexpr int kCameraWidth = 1280, kCameraHeight = 720;
 struct RayBench {
   std::vector<gpu::TraceRay> rays;        // primary rays
   std::vector<gpu::RayHit> hits;
+  gpu::CameraRays camera{};               // the same camera, for rays made where they are traced
   std::vector<gpu::TraceRay> visibility;  // one per primary hit, toward the sun
   std::vector<std::uint32_t> occluded;
 };
@@ -179,6 +180,14 @@ RayBench primaryRays(int) {
       b.rays.push_back(gpu::makeTraceRay(eye, glm::normalize(forward + right * u + up * v), 0.0f, 4000.0f));
     }
   b.hits.resize(b.rays.size());
+  glm::vec3 high, low;
+  gpu::splitToFloats(eye, high, low);
+  b.camera.originHigh = glm::vec4(high, float(tanHalf * aspect));
+  b.camera.originLow = glm::vec4(low, float(tanHalf));
+  b.camera.forward = glm::vec4(glm::vec3(forward), 1e-3f);
+  b.camera.right = glm::vec4(glm::vec3(right), 4000.0f);
+  b.camera.up = glm::vec4(glm::vec3(up), 0.0f);
+  b.camera.size = glm::uvec4(kCameraWidth, kCameraHeight, 0u, 0u);
   return b;
 }
 
@@ -218,6 +227,21 @@ void benchRayKinds(RayBench& b, Tracer& tracer, int reps, const char* label) {
   double c = median(visibilityClosest);
   std::printf("%-28s %9.3f s  %8.2f Mrays/s  (the visibility rays as closest-hit rays)\n",
               (std::string(label) + " visibility closest").c_str(), c, double(b.visibility.size()) / c / 1e6);
+  // The camera's rays made where they are traced (Tracer::traceCamera; on Vulkan only the record goes up)
+  // against the host-made rays of the same camera, whole calls (making, moving and tracing), back to back.
+  std::vector<gpu::RayHit> cameraHits(b.rays.size());
+  std::vector<double> cameraSeconds, ratios;
+  for (int i = 0; i < reps; ++i) {
+    const double host = timeOnce([&] { tracer.traceClosest(b.rays, b.hits); });
+    cameraSeconds.push_back(timeOnce([&] { tracer.traceCamera(b.camera, {}, cameraHits); }));
+    ratios.push_back(host / cameraSeconds.back());
+  }
+  std::sort(ratios.begin(), ratios.end());
+  const double m = median(cameraSeconds);
+  std::printf("%-28s %9.3f s  %8.2f Mrays/s  (whole call; host-made rays' call / this, median of %d pairs: "
+              "%.2fx, range %.2f-%.2fx)\n",
+              (std::string(label) + " camera rays").c_str(), m, double(b.rays.size()) / m / 1e6, reps,
+              median(ratios), ratios.front(), ratios.back());
 }
 
 // Each option out of its range is refused by name, before any work.
