@@ -67,6 +67,24 @@ class CpuBackend final : public Tracer {
       }
     });
   }
+  TraceStats traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
+                             std::span<const gpu::VisibilityReceiver> receivers,
+                             std::span<std::uint32_t> occluded) override {
+    const std::uint64_t count = checkVisibilityTrace(frame, lights, receivers, occluded.size());
+    CpuTracer& tracer = bound();
+    // In slices, as traceCamera: whole receivers of about 65,536 rays each.
+    const std::size_t perSlice = std::max<std::size_t>(1, (std::size_t(1) << 16) / lights.size());
+    thread_local std::vector<gpu::TraceRay> callerSlice;
+    std::vector<gpu::TraceRay>& slice = callerSlice;
+    return timed(count, [&] {
+      for (std::size_t first = 0; first < receivers.size(); first += perSlice) {
+        const std::size_t n = std::min(perSlice, receivers.size() - first);
+        visibilityRays(frame, lights, receivers.subspan(first, n), slice);
+        tracer.traceAny(slice, occluded.subspan(first * lights.size(), slice.size()), options_.path,
+                        options_.threads);
+      }
+    });
+  }
   CpuTracer* cpu() override { return tracer_.get(); }
 
  private:
@@ -118,6 +136,11 @@ class VulkanBackend final : public Tracer {
                          std::span<gpu::RayHit> hits) override {
     return tracer_.traceCamera(camera, pixels, hits);
   }
+  TraceStats traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
+                             std::span<const gpu::VisibilityReceiver> receivers,
+                             std::span<std::uint32_t> occluded) override {
+    return tracer_.traceVisibility(frame, lights, receivers, occluded);
+  }
   VulkanTracer* vulkan() override { return &tracer_; }
 
  private:
@@ -161,6 +184,47 @@ std::vector<gpu::TraceRay> cameraRays(const gpu::CameraRays& camera, std::span<c
     rays[k] = gpu::vsCameraRay(camera, pixels.empty() ? std::uint32_t(k) : pixels[k]);
   });
   return rays;
+}
+
+std::uint64_t checkVisibilityTrace(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
+                                   std::span<const gpu::VisibilityReceiver> receivers, std::size_t answerCount) {
+  if (lights.empty()) throwBadInput("traceVisibility: lights: none (a visibility ray goes toward a light)");
+  const std::uint64_t count = std::uint64_t(receivers.size()) * lights.size();
+  if (count > std::numeric_limits<std::uint32_t>::max() || lights.size() > std::numeric_limits<std::uint32_t>::max())
+    throwBadInput("traceVisibility: " + std::to_string(receivers.size()) + " receivers x " +
+                  std::to_string(lights.size()) + " lights: more than 2^32 rays in one call");
+  if (answerCount != count)
+    throwBadInput("traceVisibility: " + std::to_string(answerCount) + " answers for " + std::to_string(count) +
+                  " rays (receivers x lights)");
+  auto finite = [](const glm::vec4& v, int components) {
+    for (int c = 0; c < components; ++c)
+      if (!std::isfinite(v[c])) return false;
+    return true;
+  };
+  if (!finite(frame.boundsMin, 4) || !finite(frame.boundsMax, 4))
+    throwBadInput("traceVisibility: VisibilityRays.bounds: not a finite number");
+  for (std::size_t l = 0; l < lights.size(); ++l) {
+    const std::string name = "traceVisibility: lights[" + std::to_string(l) + "]";
+    if (!finite(lights[l].target, 3) || std::isnan(lights[l].target.w))
+      throwBadInput(name + ".target: not a finite number");
+    if (lights[l].kind.x != gpu::VS_VISIBILITY_TOWARD_POINT && lights[l].kind.x != gpu::VS_VISIBILITY_TOWARD_DIRECTION)
+      throwBadInput(name + ".kind: " + std::to_string(lights[l].kind.x) +
+                    " is neither VS_VISIBILITY_TOWARD_POINT nor VS_VISIBILITY_TOWARD_DIRECTION");
+  }
+  for (std::size_t k = 0; k < receivers.size(); ++k)
+    if (!finite(receivers[k].position, 4) || !finite(receivers[k].normal, 4))
+      throwBadInput("traceVisibility: receivers[" + std::to_string(k) + "]: not a finite number");
+  return count;
+}
+
+void visibilityRays(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
+                    std::span<const gpu::VisibilityReceiver> receivers, std::vector<gpu::TraceRay>& rays) {
+  const std::size_t lightCount = lights.size();
+  rays.resize(receivers.size() * lightCount);
+  tbb::parallel_for(std::size_t(0), receivers.size(), [&](std::size_t k) {
+    for (std::size_t l = 0; l < lightCount; ++l)
+      rays[k * lightCount + l] = gpu::vsVisibilityRay(frame, lights[l], receivers[k]);
+  });
 }
 
 void Tracer::throwNullScene() { throwBadInput("Tracer::setScene: no scene (a null pointer)"); }

@@ -12,6 +12,7 @@
 
 #include "compute/scene_data.h"
 #include "compute/shared/camera_rays.h"
+#include "compute/shared/visibility_rays.h"
 #include "compute/trace_types.h"
 
 namespace vs {
@@ -85,6 +86,17 @@ class Tracer {
   // frame, the record's sizes are 1.. and its numbers finite (else vs::Error(BadInput), nothing traced).
   virtual TraceStats traceCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
                                  std::span<gpu::RayHit> hits) = 0;
+  // The any-hit answers of visibility rays (compute/shared/visibility_rays.h): occluded[k * lights.size() + l]
+  // is 1 where receiver k's ray toward light l holds a solid voxel, 0 where it is clear or empty. The Vulkan
+  // backend makes the rays on the device, so only the record, the lights and the receivers go up (32 bytes a
+  // receiver instead of 48 a ray); the CPU backend makes the same rays (visibilityRays) and traces them as
+  // traceAny does: the same answers bit for bit. frame.counts is ignored.
+  // Preconditions: setScene was called; at least one light; occluded as long as receivers * lights; every
+  // number of the record, lights and receivers finite except a light's `target.w` (any length < 0 means
+  // unbounded) and a light kind one of VS_VISIBILITY_TOWARD_* (else vs::Error(BadInput), nothing traced).
+  virtual TraceStats traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
+                                     std::span<const gpu::VisibilityReceiver> receivers,
+                                     std::span<std::uint32_t> occluded) = 0;
 
   // The backend's own tracer, for its statistics (the CPU fast path's table build, the Vulkan pipeline cache
   // and box table), or null for the other backend.
@@ -115,6 +127,16 @@ std::uint64_t checkCameraTrace(const gpu::CameraRays& camera, std::span<const st
 // The rays traceCamera traces, made on the host (the same bits the device makes). Preconditions: as
 // checkCameraTrace accepts.
 std::vector<gpu::TraceRay> cameraRays(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels = {});
+
+// Checks a visibility trace's arguments as Tracer::traceVisibility states them (vs::Error(BadInput) naming the
+// field) and returns the number of rays it traces.
+std::uint64_t checkVisibilityTrace(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
+                                   std::span<const gpu::VisibilityReceiver> receivers, std::size_t answerCount);
+// The rays traceVisibility traces, made on the host (the same bits the device makes) into `rays` (resized, its
+// storage reused): ray k * lights.size() + l is receivers[k]'s toward light l. Preconditions: as
+// checkVisibilityTrace accepts.
+void visibilityRays(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
+                    std::span<const gpu::VisibilityReceiver> receivers, std::vector<gpu::TraceRay>& rays);
 
 std::unique_ptr<Tracer> makeCpuTracer(const CpuTracerOptions& options = {});
 // Throws vs::Error(Runtime) when no usable Vulkan device exists (VulkanTracer; its options in

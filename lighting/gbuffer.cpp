@@ -11,12 +11,6 @@
 
 namespace vs {
 
-std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera) { return cameraRays(cameraRaysOf(camera)); }
-
-std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera, std::span<const std::uint32_t> pixels) {
-  return cameraRays(cameraRaysOf(camera), pixels);
-}
-
 namespace {
 
 const glm::dvec3 kFaceNormals[6] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}};
@@ -101,76 +95,54 @@ GBuffer traceGBuffer(const Scene& scene, const CameraFrame& camera, Tracer& trac
   return g;
 }
 
-namespace {
-
-// Where the ray o + t d leaves the box (double slabs); 0 when it starts outside and misses it.
-double exitDistance(const glm::dvec3& o, const glm::dvec3& d, const Aabb& box) {
-  if (box.empty()) return 0.0;
-  double tExit = std::numeric_limits<double>::infinity();
-  for (int a = 0; a < 3; ++a) {
-    if (d[a] == 0.0) continue;
-    const double t0 = (double(box.min[a]) - o[a]) / d[a], t1 = (double(box.max[a]) - o[a]) / d[a];
-    tExit = std::min(tExit, std::max(t0, t1));
+VisibilitySetup visibilitySetup(std::span<const gpu::ShadeLight> lights, std::span<const float> maxLength,
+                                const Aabb& worldBounds) {
+  VisibilitySetup setup;
+  // An empty world box (its min at +infinity) as a finite empty one: rays toward a direction then have no length.
+  const bool empty = worldBounds.empty();
+  setup.frame.boundsMin = glm::vec4(empty ? glm::vec3(1.0f) : worldBounds.min, 0.0f);
+  setup.frame.boundsMax = glm::vec4(empty ? glm::vec3(0.0f) : worldBounds.max, 0.0f);
+  setup.lights.resize(lights.size());
+  for (std::size_t l = 0; l < lights.size(); ++l) {
+    gpu::VisibilityLight& v = setup.lights[l];
+    const float length = l < maxLength.size() ? maxLength[l] : 0.0f;
+    if (lights[l].info.x == gpu::VS_LIGHT_DIRECTIONAL) {
+      // The light's direction is the way its light travels: the rays go the other way.
+      const glm::dvec3 toLight = -glm::normalize(glm::dvec3(glm::vec3(lights[l].direction)));
+      v.target = glm::vec4(gpu::roundedToFloat(toLight), length);
+      v.kind = glm::vec4(gpu::VS_VISIBILITY_TOWARD_DIRECTION, 0.0f, 0.0f, 0.0f);
+    } else {
+      v.target = glm::vec4(glm::vec3(lights[l].position), length);
+      v.kind = glm::vec4(gpu::VS_VISIBILITY_TOWARD_POINT, 0.0f, 0.0f, 0.0f);
+    }
   }
-  return std::max(tExit, 0.0);
+  return setup;
 }
 
-}  // namespace
-
-namespace {
-
-gpu::TraceRay visibilityRay(const gpu::GBufferTexel& g, const gpu::ShadeLight& light, float maxLength,
-                            const Aabb& worldBounds) {
-  const gpu::TraceRay empty = gpu::makeTraceRay(glm::dvec3(0.0), glm::dvec3(0.0, 1.0, 0.0), 1.0f, 0.0f);
-  if (g.info.w == 0u || maxLength == 0.0f) return empty;
-  const glm::dvec3 n(glm::vec3(g.normal));
-  const glm::dvec3 origin = glm::dvec3(glm::vec3(g.position)) + n * (1e-3 * double(g.normal.w));
-  glm::dvec3 toLight;
-  double length;
-  if (light.info.x == gpu::VS_LIGHT_DIRECTIONAL) {
-    toLight = -glm::normalize(glm::dvec3(glm::vec3(light.direction)));
-    length = exitDistance(origin, toLight, worldBounds);
-  } else {
-    const glm::dvec3 d = glm::dvec3(glm::vec3(light.position)) - origin;
-    length = glm::length(d);
-    if (!(length > 0.0)) return empty;
-    toLight = d / length;
-  }
-  if (!(glm::dot(n, toLight) > 0.0)) return empty;
-  if (maxLength > 0.0f) length = std::min(length, double(maxLength));
-  return gpu::makeTraceRay(origin, toLight, 0.0f, float(length));
+gpu::VisibilityReceiver visibilityReceiver(const gpu::GBufferTexel& texel) {
+  gpu::VisibilityReceiver r{};
+  if (texel.info.w == 0u) return r;
+  r.position = glm::vec4(glm::vec3(texel.position), float(1e-3 * double(texel.normal.w)));
+  r.normal = glm::vec4(glm::vec3(texel.normal), 1.0f);
+  return r;
 }
 
-}  // namespace
+void visibilityReceivers(const GBuffer& gbuffer, std::span<const std::uint32_t> pixels,
+                         std::vector<gpu::VisibilityReceiver>& receivers) {
+  const std::size_t count = pixels.empty() ? gbuffer.texels.size() : pixels.size();
+  receivers.resize(count);
+  tbb::parallel_for(std::size_t(0), count, [&](std::size_t k) {
+    receivers[k] = visibilityReceiver(gbuffer.texels[pixels.empty() ? k : pixels[k]]);
+  });
+}
 
 std::vector<gpu::TraceRay> visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights,
                                           std::span<const float> maxLength, const Aabb& worldBounds) {
+  const VisibilitySetup setup = visibilitySetup(lights, maxLength, worldBounds);
+  std::vector<gpu::VisibilityReceiver> receivers;
+  visibilityReceivers(gbuffer, {}, receivers);
   std::vector<gpu::TraceRay> rays;
-  visibilityRays(gbuffer, lights, maxLength, worldBounds, rays);
-  return rays;
-}
-
-void visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights, std::span<const float> maxLength,
-                    const Aabb& worldBounds, std::vector<gpu::TraceRay>& rays) {
-  const std::size_t lightCount = lights.size();
-  rays.resize(gbuffer.texels.size() * lightCount);
-  tbb::parallel_for(std::size_t(0), gbuffer.texels.size(), [&](std::size_t i) {
-    for (std::size_t l = 0; l < lightCount; ++l)
-      rays[i * lightCount + l] =
-          visibilityRay(gbuffer.texels[i], lights[l], l < maxLength.size() ? maxLength[l] : 0.0f, worldBounds);
-  });
-}
-
-std::vector<gpu::TraceRay> visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights,
-                                          std::span<const float> maxLength, const Aabb& worldBounds,
-                                          std::span<const std::uint32_t> pixels) {
-  const std::size_t lightCount = lights.size();
-  std::vector<gpu::TraceRay> rays(pixels.size() * lightCount);
-  tbb::parallel_for(std::size_t(0), pixels.size(), [&](std::size_t k) {
-    for (std::size_t l = 0; l < lightCount; ++l)
-      rays[k * lightCount + l] = visibilityRay(gbuffer.texels[pixels[k]], lights[l],
-                                               l < maxLength.size() ? maxLength[l] : 0.0f, worldBounds);
-  });
+  visibilityRays(setup.frame, setup.lights, receivers, rays);
   return rays;
 }
 
@@ -206,13 +178,13 @@ void markVisibilityRaysMeeting(const GBuffer& gbuffer, std::span<const gpu::Shad
     b.min -= pad;
     b.max += pad;
   }
-  const std::size_t lightCount = lights.size();
+  const VisibilitySetup setup = visibilitySetup(lights, maxLength, worldBounds);
   tbb::parallel_for(std::size_t(0), gbuffer.texels.size(), [&](std::size_t i) {
     if (marks[i] || gbuffer.texels[i].info.w == 0u) return;
-    for (std::size_t l = 0; l < lightCount; ++l) {
-      const float length = l < maxLength.size() ? maxLength[l] : 0.0f;
-      if (length == 0.0f) continue;
-      const gpu::TraceRay r = visibilityRay(gbuffer.texels[i], lights[l], length, worldBounds);
+    const gpu::VisibilityReceiver receiver = visibilityReceiver(gbuffer.texels[i]);
+    for (const gpu::VisibilityLight& light : setup.lights) {
+      if (light.target.w == 0.0f) continue;
+      const gpu::TraceRay r = gpu::vsVisibilityRay(setup.frame, light, receiver);
       const double tMin = double(r.originHigh.w), tMax = double(r.originLow.w);
       if (!(tMax >= tMin)) continue;  // an empty ray: nothing it answers can change
       const glm::dvec3 o = glm::dvec3(glm::vec3(r.originHigh)) + glm::dvec3(glm::vec3(r.originLow));

@@ -19,17 +19,9 @@ struct GBuffer {
   std::vector<gpu::GBufferTexel> texels;  // row 0 at the top
 };
 
-// The primary ray of every pixel, row by row: from the camera position (split into two floats, as a view's
-// eye), through the pixel centre, from the near plane to the far plane (clipped as a rasteriser clips). The
-// rays Tracer::traceCamera traces for cameraRaysOf(camera), bit for bit (compute/shared/camera_rays.h).
-std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera);
-
-// The primary rays of the given pixels (row-major indices), in their order.
-std::vector<gpu::TraceRay> primaryRays(const CameraFrame& camera, std::span<const std::uint32_t> pixels);
-
-// Traces the primary rays (Tracer::traceCamera: made where they are traced) and resolves each hit into world position (origin + t * direction in double),
-// world face normal (the entry face through the instance's inverse transpose), the voxel's palette colour, view
-// depth and instance. Preconditions: tracer.setScene(scene.data()) was called for this scene.
+// Traces the primary rays (Tracer::traceCamera: made where they are traced) and resolves each hit into world
+// position (origin + t * direction in double), world face normal (the entry face through the instance's inverse
+// transpose), the voxel's palette colour, view depth and instance. Preconditions: tracer.setScene(scene.data()) was called for this scene.
 GBuffer traceGBuffer(const Scene& scene, const CameraFrame& camera, Tracer& tracer);
 
 // The same from closest-hit records already traced (hits[i] that of pixel i's primary ray), written into g
@@ -43,19 +35,28 @@ void resolveGBuffer(const Scene& scene, const CameraFrame& camera, std::span<con
 void resolveGBufferPixels(const Scene& scene, const CameraFrame& camera, std::span<const gpu::RayHit> hits,
                           std::span<const std::uint32_t> pixels, GBuffer& g);
 
-// One visibility ray per pixel and light (pixel * lights + light), toward the light: from the receiver moved
-// off its face by a thousandth of its voxel, to the light (spot, point) or out of the scene bounds
-// (directional), at most maxLength[light] long (< 0: unbounded; 0: the light needs no ray). Pixels without a
-// hit, facing away from the light, or of a light that needs no ray get an empty ray (tMax < tMin: clear).
+// The visibility rays of a frame's lights (compute/shared/visibility_rays.h): the record and one light record
+// per light, toward the light (spot, point: its position; directional: out of the world bounds), at most
+// maxLength[light] long (< 0: unbounded; 0, or no entry: the light needs no ray).
+struct VisibilitySetup {
+  gpu::VisibilityRays frame{};
+  std::vector<gpu::VisibilityLight> lights;
+};
+VisibilitySetup visibilitySetup(std::span<const gpu::ShadeLight> lights, std::span<const float> maxLength,
+                                const Aabb& worldBounds);
+// A G-buffer texel as the receiver of visibility rays: its rays start off its face by a thousandth of its
+// voxel; a texel without a hit receives no ray.
+gpu::VisibilityReceiver visibilityReceiver(const gpu::GBufferTexel& texel);
+// The receivers of the given pixels (row-major indices) into `receivers` (resized, its storage reused); every
+// pixel's when `pixels` is empty.
+void visibilityReceivers(const GBuffer& gbuffer, std::span<const std::uint32_t> pixels,
+                         std::vector<gpu::VisibilityReceiver>& receivers);
+
+// One visibility ray per pixel and light (pixel * lights + light), as Tracer::traceVisibility makes them for
+// visibilitySetup and visibilityReceivers: pixels without a hit, facing away from the light, or of a light that
+// needs no ray get an empty ray (tMax < tMin: clear).
 std::vector<gpu::TraceRay> visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights,
                                           std::span<const float> maxLength, const Aabb& worldBounds);
-// The same into `rays` (resized; its storage reused).
-void visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights, std::span<const float> maxLength,
-                    const Aabb& worldBounds, std::vector<gpu::TraceRay>& rays);
-// The same for the given pixels only: ray k * lights + l is pixel pixels[k]'s ray toward light l.
-std::vector<gpu::TraceRay> visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights,
-                                          std::span<const float> maxLength, const Aabb& worldBounds,
-                                          std::span<const std::uint32_t> pixels);
 
 // Sets marks[i] (one per pixel, sized as the G-buffer) for every pixel whose visibility ray toward some light
 // (as visibilityRays makes it) meets one of the world boxes: the pixels whose answers a change inside those

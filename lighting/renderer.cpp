@@ -279,7 +279,7 @@ struct FrameRenderer::State {
   RenderedFrame frame;
   std::vector<ShadowLayer> scratch;    // trace pieces, reused
   std::vector<gpu::RayHit> hits;       // primary hits, reused
-  std::vector<gpu::TraceRay> rays;     // visibility rays, reused
+  std::vector<gpu::VisibilityReceiver> receivers;  // of the visibility rays, reused
   gpu::ShadePush push{};
   Aabb bounds;  // the world's bounds at the kept frame
 
@@ -561,36 +561,41 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
   const bool raysChanged = lightIds != s.lightIds || inputs.rayLength != s.rayLength || !changedLights.empty() ||
                            s.visible.size() != pixelCount * lightCount;
   std::vector<std::uint32_t> visible;
+  std::size_t receiversTraced = 0;
   if (needRays) {
+    // The rays are made where they are traced, from one receiver per pixel (Tracer::traceVisibility).
+    const VisibilitySetup setup = visibilitySetup(inputs.lights, inputs.rayLength, scene.worldBounds());
+    std::vector<gpu::VisibilityReceiver>& receivers = s.receivers;
     if (allPixels || raysChanged) {
-      std::vector<gpu::TraceRay>& rays = s.rays;
-      visibilityRays(frame.gbuffer, inputs.lights, inputs.rayLength, scene.worldBounds(), rays);
+      visibilityReceivers(frame.gbuffer, {}, receivers);
       visible.swap(s.visible);
-      visible.resize(rays.size());
-      const TraceStats ts = tracer_.traceAny(rays, visible);
+      visible.resize(receivers.size() * lightCount);
+      const TraceStats ts = tracer_.traceVisibility(setup.frame, setup.lights, receivers, visible);
       stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
       for (std::uint32_t& v : visible) v = v == 0u ? 1u : 0u;
-      stats.visibilityRays = rays.size();
+      stats.visibilityRays = visible.size();
+      receiversTraced = receivers.size();
       std::fill(marks.begin(), marks.end(), std::uint8_t(1));
     } else {
       visible.swap(s.visible);
       markVisibilityRaysMeeting(frame.gbuffer, inputs.lights, inputs.rayLength, scene.worldBounds(), boxes, marks);
       const std::vector<std::uint32_t> pixels = markedPixels(marks);
       if (!pixels.empty()) {
-        std::vector<gpu::TraceRay> rays =
-            visibilityRays(frame.gbuffer, inputs.lights, inputs.rayLength, scene.worldBounds(), pixels);
-        std::vector<std::uint32_t> answers(rays.size());
-        const TraceStats ts = tracer_.traceAny(rays, answers);
+        visibilityReceivers(frame.gbuffer, pixels, receivers);
+        std::vector<std::uint32_t> answers(receivers.size() * lightCount);
+        const TraceStats ts = tracer_.traceVisibility(setup.frame, setup.lights, receivers, answers);
         stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
         for (std::size_t k = 0; k < pixels.size(); ++k)
           for (std::size_t l = 0; l < lightCount; ++l)
             visible[std::size_t(pixels[k]) * lightCount + l] = answers[k * lightCount + l] == 0u ? 1u : 0u;
-        stats.visibilityRays = rays.size();
+        stats.visibilityRays = answers.size();
+        receiversTraced = receivers.size();
       }
     }
   }
-  if (vulkan) {
-    stats.bytesUploaded += stats.visibilityRays * sizeof(gpu::TraceRay);
+  if (vulkan && receiversTraced > 0) {
+    stats.bytesUploaded += sizeof(gpu::VisibilityRays) + lightCount * sizeof(gpu::VisibilityLight) +
+                           receiversTraced * sizeof(gpu::VisibilityReceiver);
     stats.bytesReadBack += stats.visibilityRays * sizeof(std::uint32_t);
   }
   timings.visibilityMs = msSince(t0);

@@ -1,5 +1,5 @@
-// The ray kinds (shadow texels, the closest-hit and any-hit rays of compute/shared/trace_rays.h, and the camera
-// rays of compute/shared/camera_rays.h) through
+// The ray kinds (shadow texels, the closest-hit and any-hit rays of compute/shared/trace_rays.h, the camera
+// rays of compute/shared/camera_rays.h and the visibility rays of compute/shared/visibility_rays.h) through
 // every backend: the CPU reference (the box-table walk, one ray at a time), the CPU fast path in every lane width
 // the processor runs (scalar, AVX2, AVX-512), the portable CPU tiles (the hierarchy walk) and the Vulkan shader
 // give identical results bit for bit on a seeded battery of more than a
@@ -648,6 +648,189 @@ TEST_F(RayKinds, BadCameraTracesAreRefused) {
     }
     // The refusals wrote nothing into the outputs they were given.
     for (const gpu::RayHit& h : two) EXPECT_EQ(h.hit, 0u);
+  }
+  EXPECT_TRUE(vulkan_->vulkan()->validationMessages().empty());
+}
+
+// Lights around a scene's world box for visibility rays: a point above it, the sun, a point with short
+// (contact) rays, one that needs no ray, and a point inside the box.
+std::vector<gpu::VisibilityLight> visibilityLights(const Aabb& box) {
+  const glm::dvec3 lo(box.min), hi(box.max), centre = (lo + hi) * 0.5;
+  const double reach = glm::length(hi - lo);
+  auto light = [](glm::dvec3 target, float length, float kind) {
+    gpu::VisibilityLight l{};
+    l.target = glm::vec4(glm::vec3(target), length);
+    l.kind = glm::vec4(kind, 0.0f, 0.0f, 0.0f);
+    return l;
+  };
+  return {light(centre + glm::dvec3(0.2, 0.9, -0.1) * reach, -1.0f, gpu::VS_VISIBILITY_TOWARD_POINT),
+          light(glm::normalize(glm::dvec3(0.3, 1.0, 0.45)), -1.0f, gpu::VS_VISIBILITY_TOWARD_DIRECTION),
+          light(centre + glm::dvec3(-0.6, 0.4, 0.3) * reach, float(0.05 * reach), gpu::VS_VISIBILITY_TOWARD_POINT),
+          light(centre + glm::dvec3(0.0, 2.0, 0.0) * reach, 0.0f, gpu::VS_VISIBILITY_TOWARD_POINT),
+          light(centre + glm::dvec3(0.05, 0.02, -0.03) * reach, -1.0f, gpu::VS_VISIBILITY_TOWARD_POINT)};
+}
+
+// Receivers spread over a box grown by a tenth: surface points with unit normals, offsets of a thousandth of
+// a voxel to a voxel, and every 17th without a surface.
+std::vector<gpu::VisibilityReceiver> visibilityReceiversIn(const Aabb& box, std::size_t count, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0), side(-1.0, 1.0);
+  const glm::dvec3 lo(box.min), hi(box.max), pad = (hi - lo) * 0.1;
+  std::vector<gpu::VisibilityReceiver> receivers(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    glm::dvec3 p = lo - pad + (hi - lo + 2.0 * pad) * glm::dvec3(unit(rng), unit(rng), unit(rng));
+    glm::dvec3 n(side(rng), side(rng), side(rng));
+    if (glm::length(n) < 1e-3) n = glm::dvec3(0.0, 1.0, 0.0);
+    receivers[k].position = glm::vec4(glm::vec3(p), float(1e-3 + unit(rng)));
+    receivers[k].normal = glm::vec4(glm::vec3(glm::normalize(n)), k % 17 == 5 ? 0.0f : 1.0f);
+  }
+  return receivers;
+}
+
+// Visibility rays made where they are traced (the shader makes them on the device from receivers and lights)
+// give the answers of the same rays made on the host and traced by the reference, bit for bit; and the host's
+// rays follow an independent double-precision construction (start off the face, toward the light, ending at
+// it, at the world box's exit or at the light's longest ray) to float precision, near the origin and 10^4
+// units out.
+TEST_F(RayKinds, VisibilityRaysMadeWhereTracedEqualTheHostsAndReachTheLights) {
+  for (glm::dvec3 offset : {glm::dvec3(0.0), glm::dvec3(1.0e4, -3.0e3, 2.0e4)}) {
+    SCOPED_TRACE("offset " + std::to_string(offset.x));
+    TestScene scene = instancedScene(offset);
+    const Aabb& box = scene.data.worldBounds;
+    gpu::VisibilityRays frame{};
+    frame.boundsMin = glm::vec4(box.min, 0.0f);
+    frame.boundsMax = glm::vec4(box.max, 0.0f);
+    const std::vector<gpu::VisibilityLight> lights = visibilityLights(box);
+    const std::vector<gpu::VisibilityReceiver> receivers = visibilityReceiversIn(box, 20000, 23);
+    std::vector<gpu::TraceRay> rays;
+    visibilityRays(frame, lights, receivers, rays);
+    ASSERT_EQ(rays.size(), receivers.size() * lights.size());
+
+    // Each ray against its own construction in double.
+    double worstAngle = 0.0, worstLength = 0.0, worstOrigin = 0.0;
+    std::size_t empty = 0, mismatchedEmpty = 0;
+    for (std::size_t k = 0; k < receivers.size(); ++k)
+      for (std::size_t l = 0; l < lights.size(); ++l) {
+        const gpu::TraceRay& r = rays[k * lights.size() + l];
+        const gpu::VisibilityReceiver& rc = receivers[k];
+        const gpu::VisibilityLight& li = lights[l];
+        const glm::dvec3 n(glm::vec3(rc.normal));
+        const glm::dvec3 origin = glm::dvec3(glm::vec3(rc.position)) + n * double(rc.position.w);
+        bool wantEmpty = rc.normal.w == 0.0f || li.target.w == 0.0f;
+        glm::dvec3 dir(0.0);
+        double length = 0.0;
+        if (!wantEmpty && li.kind.x == gpu::VS_VISIBILITY_TOWARD_DIRECTION) {
+          dir = glm::dvec3(glm::vec3(li.target));
+          double exit = std::numeric_limits<double>::infinity();
+          for (int a = 0; a < 3; ++a)
+            exit = std::min(exit, std::max((double(box.min[a]) - origin[a]) / dir[a],
+                                           (double(box.max[a]) - origin[a]) / dir[a]));
+          length = std::max(exit, 0.0);
+        } else if (!wantEmpty) {
+          const glm::dvec3 d = glm::dvec3(glm::vec3(li.target)) - origin;
+          length = glm::length(d);
+          dir = d / length;
+        }
+        const double facing = glm::dot(n, dir);
+        if (!wantEmpty && std::abs(facing) < 1e-6) continue;  // a tie that rounding may decide either way
+        wantEmpty = wantEmpty || facing <= 0.0;
+        if (li.target.w > 0.0f) length = std::min(length, double(li.target.w));
+        const bool isEmpty = r.originLow.w < r.originHigh.w;
+        empty += isEmpty;
+        if (isEmpty != wantEmpty) {
+          ++mismatchedEmpty;
+          continue;
+        }
+        if (isEmpty) continue;
+        const glm::dvec3 d(glm::vec3(r.direction));
+        worstAngle = std::max(worstAngle, glm::length(glm::cross(d, dir)) + std::abs(glm::length(d) - 1.0));
+        worstLength = std::max(worstLength, std::abs(double(r.originLow.w) - length) / std::max(length, 1.0));
+        const glm::dvec3 o = glm::dvec3(glm::vec3(r.originHigh)) + glm::dvec3(glm::vec3(r.originLow));
+        worstOrigin = std::max(worstOrigin, glm::length(o - origin) / std::max(glm::length(origin), 1.0));
+      }
+    std::printf("visibility rays against double: direction %.3g rad, length %.3g, origin %.3g (relative); "
+                "%zu of %zu empty\n",
+                worstAngle, worstLength, worstOrigin, empty, rays.size());
+    EXPECT_EQ(mismatchedEmpty, 0u);
+    EXPECT_LT(worstAngle, 1e-6);
+    EXPECT_LT(worstLength, 1e-6);
+    EXPECT_LT(worstOrigin, 1e-12);
+    EXPECT_GT(empty, rays.size() / 5) << "receivers without a surface, facing away, a light without rays";
+    EXPECT_LT(empty, rays.size() * 4 / 5);
+
+    auto reference = makeCpuTracer({CpuTracePath::Reference, 2});
+    auto fast = makeCpuTracer();
+    reference->setScene(scene.data);
+    fast->setScene(scene.data);
+    vulkan_->setScene(scene.data);
+    std::vector<std::uint32_t> expected(rays.size());
+    reference->traceAny(rays, expected);
+    const std::size_t occludedCount = std::size_t(std::count(expected.begin(), expected.end(), 1u));
+    EXPECT_GT(occludedCount, rays.size() / 50) << "some rays meet the scene";
+    EXPECT_LT(occludedCount, rays.size() - empty) << "some rays reach their light";
+    for (Tracer* t : {fast.get(), vulkan_}) {
+      SCOPED_TRACE(t->backend());
+      std::vector<std::uint32_t> answers(rays.size(), 7u);
+      const TraceStats ts = t->traceVisibility(frame, lights, receivers, answers);
+      EXPECT_EQ(ts.rays, rays.size());
+      std::size_t differ = 0, first = answers.size();
+      for (std::size_t i = 0; i < answers.size(); ++i)
+        if (answers[i] != expected[i]) {
+          first = std::min(first, i);
+          ++differ;
+        }
+      EXPECT_EQ(differ, 0u) << "first at ray " << first;
+      // A subset of the receivers, as a frame that redoes some pixels traces them.
+      const std::span<const gpu::VisibilityReceiver> some(receivers.data() + 101, 999);
+      std::vector<std::uint32_t> part(some.size() * lights.size());
+      t->traceVisibility(frame, lights, some, part);
+      EXPECT_TRUE(std::equal(part.begin(), part.end(), expected.begin() + 101 * lights.size()));
+    }
+  }
+  EXPECT_TRUE(vulkan_->vulkan()->validationMessages().empty());
+}
+
+TEST_F(RayKinds, BadVisibilityTracesAreRefused) {
+  TestScene scene = singleObjectScene(glm::dvec3(0.0));
+  const Aabb& box = scene.data.worldBounds;
+  gpu::VisibilityRays frame{};
+  frame.boundsMin = glm::vec4(box.min, 0.0f);
+  frame.boundsMax = glm::vec4(box.max, 0.0f);
+  const std::vector<gpu::VisibilityLight> lights = visibilityLights(box);
+  const std::vector<gpu::VisibilityReceiver> receivers = visibilityReceiversIn(box, 10, 3);
+  std::vector<std::uint32_t> answers(receivers.size() * lights.size(), 7u);
+  auto cpu = makeCpuTracer();
+  EXPECT_THROW(cpu->traceVisibility(frame, lights, receivers, answers), Error);  // before setScene
+  cpu->setScene(scene.data);
+  vulkan_->setScene(scene.data);
+  auto refusal = [&](Tracer& t, const gpu::VisibilityRays& f, std::span<const gpu::VisibilityLight> l,
+                     std::span<const gpu::VisibilityReceiver> r, std::span<std::uint32_t> out) -> std::string {
+    try {
+      t.traceVisibility(f, l, r, out);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "(accepted)";
+  };
+  for (Tracer* t : {cpu.get(), vulkan_}) {
+    SCOPED_TRACE(t->backend());
+    EXPECT_NE(refusal(*t, frame, {}, receivers, {}).find("lights: none"), std::string::npos);
+    std::vector<std::uint32_t> short_(answers.size() - 1);
+    EXPECT_NE(refusal(*t, frame, lights, receivers, short_).find("answers"), std::string::npos);
+    std::vector<gpu::VisibilityReceiver> nanReceiver = receivers;
+    nanReceiver[3].position.y = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_NE(refusal(*t, frame, lights, nanReceiver, answers).find("receivers[3]"), std::string::npos);
+    std::vector<gpu::VisibilityLight> badKind = lights;
+    badKind[1].kind.x = 2.0f;
+    EXPECT_NE(refusal(*t, frame, badKind, receivers, answers).find("lights[1].kind"), std::string::npos);
+    std::vector<gpu::VisibilityLight> nanLight = lights;
+    nanLight[2].target.w = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_NE(refusal(*t, frame, nanLight, receivers, answers).find("lights[2].target"), std::string::npos);
+    gpu::VisibilityRays infinite = frame;
+    infinite.boundsMax.x = std::numeric_limits<float>::infinity();
+    EXPECT_NE(refusal(*t, infinite, lights, receivers, answers).find("bounds"), std::string::npos);
+    // The refusals wrote nothing into the answers they were given.
+    for (std::uint32_t a : answers) EXPECT_EQ(a, 7u);
   }
   EXPECT_TRUE(vulkan_->vulkan()->validationMessages().empty());
 }

@@ -73,6 +73,13 @@ std::vector<Expected> cppLayouts() {
       {"CameraRays", sizeof(CameraRays),
        {VS_MEMBER(CameraRays, originHigh, 4), VS_MEMBER(CameraRays, originLow, 4), VS_MEMBER(CameraRays, forward, 4),
         VS_MEMBER(CameraRays, right, 4), VS_MEMBER(CameraRays, up, 4), VS_MEMBER(CameraRays, size, 4)}},
+      {"VisibilityRays", sizeof(VisibilityRays),
+       {VS_MEMBER(VisibilityRays, boundsMin, 4), VS_MEMBER(VisibilityRays, boundsMax, 4),
+        VS_MEMBER(VisibilityRays, counts, 4)}},
+      {"VisibilityLight", sizeof(VisibilityLight),
+       {VS_MEMBER(VisibilityLight, target, 4), VS_MEMBER(VisibilityLight, kind, 4)}},
+      {"VisibilityReceiver", sizeof(VisibilityReceiver),
+       {VS_MEMBER(VisibilityReceiver, position, 4), VS_MEMBER(VisibilityReceiver, normal, 4)}},
   };
 }
 

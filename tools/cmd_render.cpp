@@ -75,7 +75,8 @@ FrameSizes frameSizes(const Scene& scene, const RenderOptions& render) {
 
 // What a render holds in host memory at its peak, from what FrameRenderer allocates in each stage: the shadow
 // layers, and the copy of their texels the lighting inputs keep; the G-buffer trace (primary rays 48 B, hits
-// 32 B and G-buffer texels 64 B a pixel); the visibility rays (48 B a ray and a 4-byte answer); the lit image
+// 32 B and G-buffer texels 64 B a pixel); the visibility rays (a 32-byte receiver a pixel, a 4-byte answer a
+// ray: the rays themselves are made where they are traced, in slices on the CPU); the lit image
 // (16 B a pixel) and shadow terms (4 B a pixel and light); the file's pixels; and on Vulkan the host-visible
 // buffers the tracer and the lighting pass keep until the end (on a CPU device such as lavapipe, whose device
 // memory is host memory, the shadow image and the driver's own working memory too).
@@ -84,19 +85,20 @@ std::uint64_t renderBytesNeeded(const FrameSizes& f, bool exr, const VulkanDevic
   const std::uint64_t perLight = pixels * f.lights * sizeof(float);
   const std::uint64_t gbuffer = pixels * 64;
   const std::uint64_t file = exr ? pixels * (15 + f.lights) * sizeof(float) : pixels * 3;
+  const std::uint64_t receivers = f.rays > 0 ? pixels * 32 : 0;
   // The Vulkan buffers, as each stage adds them.
   std::uint64_t vTrace = 0, vPrimary = 0, vVisibility = 0, vShade = 0;
   if (device) {
     const bool cpuDevice = device->type == VulkanDeviceType::Cpu;
     vTrace = layers + (cpuDevice ? f.maxW * f.maxH * f.views * sizeof(float) + kCpuVulkanDeviceWorkingBytes : 0);
     vPrimary = pixels * (48 + 32);
-    vVisibility = (f.rays - std::min(f.rays, pixels)) * 48 + f.rays * 4;  // the ray buffer grows to hold them
+    vVisibility = receivers + f.rays * 4;
     vShade = gbuffer + layers + 2 * perLight + pixels * 16;
   }
   const std::uint64_t stages[] = {
       layers + vTrace,
       layers + pixels * (48 + 32 + 64) + vTrace + vPrimary,
-      2 * layers + gbuffer + f.rays * (48 + 4) + vTrace + vPrimary + vVisibility,
+      2 * layers + gbuffer + receivers + f.rays * 4 + vTrace + vPrimary + vVisibility,
       2 * layers + gbuffer + 2 * perLight + pixels * 16 + vTrace + vPrimary + vVisibility + vShade,
       layers + gbuffer + pixels * 16 + perLight + file + vTrace + vPrimary + vVisibility + vShade,
   };

@@ -24,6 +24,9 @@ layout(std430, set = 0, binding = 7) buffer ViewProbe { TraceView viewProbe[]; }
 layout(std430, set = 0, binding = 8) buffer RayProbe { TraceRay rayProbe[]; };
 layout(std430, set = 0, binding = 9) buffer HitProbe { RayHit hitProbe[]; };
 layout(std430, set = 0, binding = 10) buffer CameraProbe { CameraRays cameraProbe[]; };
+layout(std430, set = 0, binding = 11) buffer VisibilityProbe { VisibilityRays visibilityProbe[]; };
+layout(std430, set = 0, binding = 12) buffer VisibilityLightProbe { VisibilityLight visibilityLightProbe[]; };
+layout(std430, set = 0, binding = 13) buffer ReceiverProbe { VisibilityReceiver receiverProbe[]; };
 
 uint S(uint s, uint e, uint k) { return 0x40000000u | (s << 16) | (e << 8) | k; }
 float F(uint s, uint e, uint k) { return uintBitsToFloat(S(s, e, k)); }
@@ -94,5 +97,15 @@ void main() {
     cameraProbe[e].right = F4(10u, e, 12u);
     cameraProbe[e].up = F4(10u, e, 16u);
     cameraProbe[e].size = U4(10u, e, 20u);
+
+    visibilityProbe[e].boundsMin = F4(11u, e, 0u);
+    visibilityProbe[e].boundsMax = F4(11u, e, 4u);
+    visibilityProbe[e].counts = U4(11u, e, 8u);
+
+    visibilityLightProbe[e].target = F4(12u, e, 0u);
+    visibilityLightProbe[e].kind = F4(12u, e, 4u);
+
+    receiverProbe[e].position = F4(13u, e, 0u);
+    receiverProbe[e].normal = F4(13u, e, 4u);
   }
 }

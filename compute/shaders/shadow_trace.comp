@@ -5,7 +5,8 @@
 // invocation offsets by the rectangle's origin and skips texels outside it, so a partial re-trace touches only
 // the texels it was asked for. Closest- and any-hit rays: each workgroup takes VS_RAYS_PER_GROUP consecutive
 // rays of the ray buffer from push.rayOffset; camera dispatches as many pixels, each ray made from the camera
-// record (compute/shared/camera_rays.h).
+// record (compute/shared/camera_rays.h); visibility dispatches as many (receiver, light) pairs, each ray made
+// from the receiver and the light (compute/shared/visibility_rays.h).
 //
 // How the scene is read matters on llvmpipe (lavapipe), which runs 8 invocations as the lanes of one SIMD
 // register: it loads from a storage buffer at a per-invocation index one lane at a time, behind a branch per
@@ -23,6 +24,7 @@
 #include "compute/shared/trace_interface.h"
 #include "compute/shared/lanes.h"
 #include "compute/shared/camera_rays.h"
+#include "compute/shared/visibility_rays.h"
 
 layout(local_size_x = VS_TRACE_GROUP_WIDTH, local_size_y = VS_TRACE_GROUP_HEIGHT, local_size_z = 1) in;
 
@@ -47,6 +49,12 @@ layout(std430, set = 0, binding = VS_BINDING_OCCLUDED) writeonly buffer Occluded
 layout(std430, set = 0, binding = VS_BINDING_CAMERA) readonly buffer CameraBuffer {
   CameraRays camera;
   uint cameraPixels[];
+};
+// Visibility dispatches: the record, then its counts.x lights and counts.y receivers, two vec4 each
+// (VisibilityLight, VisibilityReceiver).
+layout(std430, set = 0, binding = VS_BINDING_VISIBILITY) readonly buffer VisibilityBuffer {
+  VisibilityRays visibility;
+  vec4 visibilityEntries[];
 };
 // Records as RGBA32UI texels (the VS_*_TEXELS of the layout headers), instance indices and node escapes
 // (Bvh::nodeEscapes) as R32UI.
@@ -157,6 +165,15 @@ void main() {
   if (VS_RAY_KIND == VS_RAY_CAMERA) {
     uint pixel = camera.size.z == 0u ? index : cameraPixels[index];
     hits[index] = vsClosestHit(vsTraceRayToWorld(vsCameraRay(camera, pixel)));
+    return;
+  }
+  if (VS_RAY_KIND == VS_RAY_VISIBILITY) {
+    uint lightCount = visibility.counts.x;
+    uint l = 2u * (index % lightCount);
+    uint r = 2u * (lightCount + index / lightCount);
+    VisibilityLight light = VisibilityLight(visibilityEntries[l], visibilityEntries[l + 1u]);
+    VisibilityReceiver receiver = VisibilityReceiver(visibilityEntries[r], visibilityEntries[r + 1u]);
+    occluded[index] = vsAnyHit(vsTraceRayToWorld(vsVisibilityRay(visibility, light, receiver))) ? 1u : 0u;
     return;
   }
   WorldRay ray = vsTraceRayToWorld(rays[index]);

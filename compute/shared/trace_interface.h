@@ -38,10 +38,11 @@ const uint VS_BINDING_RAYS = 14u;             // storage buffer of TraceRay (clo
 const uint VS_BINDING_HITS = 15u;             // storage buffer of RayHit (closest-hit dispatches)
 const uint VS_BINDING_OCCLUDED = 16u;         // storage buffer of uint (any-hit dispatches)
 const uint VS_BINDING_CAMERA = 17u;           // storage buffer: a CameraRays record, then the listed pixels
-const uint VS_BINDING_COUNT = 18u;
-// Storage buffers the shader declares: the split arrays' chunks, the three ray buffers and the camera's. Within
-// the 32 of lavapipe's maxPerStageDescriptorStorageBuffers.
-const uint VS_STORAGE_BUFFER_COUNT = VS_SPLIT_ARRAY_COUNT * uint(VS_MAX_CHUNKS) + 4u;
+const uint VS_BINDING_VISIBILITY = 18u;       // storage buffer: a VisibilityRays record, its lights, its receivers
+const uint VS_BINDING_COUNT = 19u;
+// Storage buffers the shader declares: the split arrays' chunks, the three ray buffers, the camera's and the
+// visibility rays'. Within the 32 of lavapipe's maxPerStageDescriptorStorageBuffers.
+const uint VS_STORAGE_BUFFER_COUNT = VS_SPLIT_ARRAY_COUNT * uint(VS_MAX_CHUNKS) + 5u;
 
 // Specialization-constant ids (see the shader for what each removes).
 const int VS_SPEC_SPLIT_BINDINGS = 0;   // bool
@@ -54,8 +55,9 @@ const int VS_RAY_SHADOW_TEXEL = 0;  // one texel of the view per invocation, int
 const int VS_RAY_CLOSEST = 1;       // one TraceRay per invocation, its RayHit out
 const int VS_RAY_ANY = 2;           // one TraceRay per invocation, 1 out where its segment holds a solid voxel
 const int VS_RAY_CAMERA = 3;        // one camera pixel per invocation, its ray made there, its RayHit out
+const int VS_RAY_VISIBILITY = 4;    // one (receiver, light) per invocation, its ray made there, 1 out if occluded
 
-// Rays per workgroup of a closest-hit, any-hit or camera dispatch: the 8 x 8 workgroup, read as one row.
+// Rays per workgroup of a closest-hit, any-hit, camera or visibility dispatch: the 8 x 8 workgroup, read as one row.
 const uint VS_RAYS_PER_GROUP = VS_TRACE_GROUP_WIDTH * VS_TRACE_GROUP_HEIGHT;
 
 // The push-constant block of one dispatch.
@@ -68,8 +70,9 @@ struct TracePush {
   uint occupancyShift;
   uint payloadShift;
   uint layer;      // the image layer a shadow-texel dispatch writes
-  uint rayOffset;  // the first ray of a closest-hit, any-hit or camera dispatch
-  uint rayCount;   // rays in the whole buffer (camera: pixels in the frame or the list)
+  uint rayOffset;  // the first ray of a closest-hit, any-hit, camera or visibility dispatch
+  uint rayCount;   // rays in the whole buffer (camera: pixels in the frame or the list; visibility:
+                   // receivers * lights)
 };
 
 VS_NAMESPACE_END
@@ -90,6 +93,7 @@ enum class RayKind : int {
   Closest = VS_RAY_CLOSEST,
   Any = VS_RAY_ANY,
   Camera = VS_RAY_CAMERA,
+  Visibility = VS_RAY_VISIBILITY,
 };
 
 // A trace pipeline variant, by its named options (the specialization constants above).

@@ -1,7 +1,8 @@
 // trace_rays.h: the records of the ray kinds besides the shadow texel (DESIGN.md §6), readable as C++ and
-// GLSL: a ray given by its caller, the closest-hit record, and a camera whose primary rays are made where they
-// are traced (compute/shared/camera_rays.h). Any-hit rays read the same TraceRay and answer
-// one word (1: some solid voxel lies in [tMin, tMax]).
+// GLSL: a ray given by its caller, the closest-hit record, a camera whose primary rays are made where they are
+// traced (compute/shared/camera_rays.h), and the receivers and lights that visibility rays are made from
+// (compute/shared/visibility_rays.h). Any-hit rays read the same TraceRay and answer one word (1: some solid
+// voxel lies in [tMin, tMax]).
 #ifndef VOXSHADOW_TRACE_RAYS_H
 #define VOXSHADOW_TRACE_RAYS_H
 
@@ -35,6 +36,30 @@ struct RayHit {
   uint instance;  // the instance's index in the scene
   uint material;  // the voxel's palette index (1..255)
   uint hit;       // 1 on a hit
+};
+
+// Visibility rays (toward the lights, from surface points): one any-hit ray per receiver and light, made where
+// it is traced (compute/shared/visibility_rays.h), so that a frame uploads a receiver per pixel instead of a
+// TraceRay per pixel and light. A trace reads this record, then its lights, then its receivers; ray
+// k * counts.x + l is receiver k's ray toward light l. Every member is 16-byte aligned (std140 = std430).
+struct VisibilityRays {
+  vec4 boundsMin;  // xyz: the world box out of which rays toward a direction end; w: 0
+  vec4 boundsMax;  // xyz; w: 0
+  uvec4 counts;    // x: lights, y: receivers; zw: 0
+};
+
+const float VS_VISIBILITY_TOWARD_POINT = 0.0f;      // the ray ends at the light's position
+const float VS_VISIBILITY_TOWARD_DIRECTION = 1.0f;  // the ray leaves the world box along a direction
+
+struct VisibilityLight {
+  vec4 target;  // xyz: the light's position, or the unit vector toward it; w: the longest ray (< 0: unbounded,
+                // 0: the light needs no ray)
+  vec4 kind;    // x: VS_VISIBILITY_TOWARD_POINT or VS_VISIBILITY_TOWARD_DIRECTION; yzw: 0
+};
+
+struct VisibilityReceiver {
+  vec4 position;  // xyz: the surface point; w: how far off its face (along the normal) the rays start
+  vec4 normal;    // xyz: the unit face normal; w: 1 for a surface, 0 for none (its rays are empty)
 };
 
 // A camera's pixel rays, eye-relative: the camera position in two floats (as a view's eye, DESIGN.md §6), its
@@ -77,6 +102,13 @@ VS_OFFSET_CHECK(CameraRays, forward, 32);
 VS_OFFSET_CHECK(CameraRays, right, 48);
 VS_OFFSET_CHECK(CameraRays, up, 64);
 VS_OFFSET_CHECK(CameraRays, size, 80);
+VS_LAYOUT_CHECK(VisibilityRays, 48);
+VS_OFFSET_CHECK(VisibilityRays, boundsMax, 16);
+VS_OFFSET_CHECK(VisibilityRays, counts, 32);
+VS_LAYOUT_CHECK(VisibilityLight, 32);
+VS_OFFSET_CHECK(VisibilityLight, kind, 16);
+VS_LAYOUT_CHECK(VisibilityReceiver, 32);
+VS_OFFSET_CHECK(VisibilityReceiver, normal, 16);
 }  // namespace vs::gpu
 #endif
 

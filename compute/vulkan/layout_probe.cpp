@@ -10,11 +10,12 @@
 namespace vs {
 namespace {
 
-constexpr std::uint32_t kStructs = 11;
+constexpr std::uint32_t kStructs = 14;
 // Generous: two elements of the largest record (TraceView, 192 bytes) even if GLSL padded them.
 constexpr VkDeviceSize kProbeBytes = 1024;
 const char* kNames[kStructs] = {"Region", "Sector", "Brick", "ObjectRecord", "BvhNode", "Affine", "InstanceRecord",
-                                "TraceView", "TraceRay", "RayHit", "CameraRays"};
+                                "TraceView", "TraceRay", "RayHit", "CameraRays", "VisibilityRays",
+                                "VisibilityLight", "VisibilityReceiver"};
 
 }  // namespace
 

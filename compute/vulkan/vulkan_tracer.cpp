@@ -30,10 +30,12 @@ constexpr std::uint32_t kViewsBinding = gpu::VS_BINDING_VIEW, kImageBinding = gp
 constexpr std::uint32_t kBoxCodesBinding = gpu::VS_BINDING_BOX_TABLE, kEscapesBinding = gpu::VS_BINDING_NODE_ESCAPES;
 constexpr const char* kSplitNames[kSplitArrayCount] = {"regionTable", "regions", "sectors", "bricks", "occupancy",
                                                        "payload"};
-// The ray buffers and the camera's, bound as single storage buffers.
-constexpr std::uint32_t kRayBindings[4] = {gpu::VS_BINDING_RAYS, gpu::VS_BINDING_HITS, gpu::VS_BINDING_OCCLUDED,
-                                           gpu::VS_BINDING_CAMERA};
-bool isRayBinding(std::uint32_t b) { return std::find(std::begin(kRayBindings), std::end(kRayBindings), b) != std::end(kRayBindings); }
+// The ray buffers, the camera's and the visibility rays', bound as single storage buffers.
+constexpr std::uint32_t kRayBindings[5] = {gpu::VS_BINDING_RAYS, gpu::VS_BINDING_HITS, gpu::VS_BINDING_OCCLUDED,
+                                           gpu::VS_BINDING_CAMERA, gpu::VS_BINDING_VISIBILITY};
+bool isRayBinding(std::uint32_t b) {
+  return std::find(std::begin(kRayBindings), std::end(kRayBindings), b) != std::end(kRayBindings);
+}
 
 using gpu::TracePush;
 using gpu::TracePipelineOptions;
@@ -158,8 +160,9 @@ struct VulkanTracer::Impl {
   vk::Buffer readback;
   vk::Image image;
   // Closest- and any-hit dispatches: the rays in, the results out (host-visible, grown as needed); camera
-  // dispatches: the camera record and the listed pixels in.
-  vk::Buffer rayBuffer, hitBuffer, occludedBuffer, cameraBuffer;
+  // dispatches: the camera record and the listed pixels in; visibility dispatches: the record, lights and
+  // receivers in.
+  vk::Buffer rayBuffer, hitBuffer, occludedBuffer, cameraBuffer, visibilityBuffer;
 
   explicit Impl(const VulkanOptions& o)
       : options(o),
@@ -723,8 +726,8 @@ struct VulkanTracer::Impl {
       w.pTexelBufferView = &texelViews[t];
       writes.push_back(w);
     }
-    const vk::Buffer* rayBuffers[4] = {&rayBuffer, &hitBuffer, &occludedBuffer, &cameraBuffer};
-    for (int r = 0; r < 4; ++r) {
+    const vk::Buffer* rayBuffers[5] = {&rayBuffer, &hitBuffer, &occludedBuffer, &cameraBuffer, &visibilityBuffer};
+    for (int r = 0; r < 5; ++r) {
       VkDescriptorBufferInfo* info = bufferInfo(rayBuffers[r]->buffer ? rayBuffers[r] : nullptr);
       auto rw = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
       rw.dstSet = descriptorSet;
@@ -965,12 +968,16 @@ struct VulkanTracer::Impl {
   // `resultBytes` each.
   // Camera rays (kind Camera, `rays` empty): the camera record and its listed pixels go up instead, and the
   // shader makes each ray (compute/shared/camera_rays.h); `rayCount` results come back.
+  // Visibility rays (kind Visibility, `rays` empty): writeSource fills sourceBytes of the visibility buffer
+  // (the record, its lights and receivers, as the shader reads them), and the shader makes each ray
+  // (compute/shared/visibility_rays.h).
   TraceStats traceRays(gpu::RayKind kind, std::span<const gpu::TraceRay> rays, void* out, std::size_t resultBytes,
                        const gpu::CameraRays* camera = nullptr, std::span<const std::uint32_t> pixels = {},
-                       std::uint64_t rayCount = 0) {
+                       std::uint64_t rayCount = 0, std::size_t sourceBytes = 0,
+                       const std::function<void(std::byte*)>& writeSource = {}) {
     auto t0 = std::chrono::steady_clock::now();
     if (!uploaded) throwRuntime("VulkanTracer: rays traced before upload()");
-    if (kind != gpu::RayKind::Camera) rayCount = rays.size();
+    if (kind != gpu::RayKind::Camera && kind != gpu::RayKind::Visibility) rayCount = rays.size();
     TraceStats stats;
     stats.rays = rayCount;
     if (rayCount == 0) {
@@ -992,13 +999,18 @@ struct VulkanTracer::Impl {
       ensure(cameraBuffer, cameraBytes);
       std::memcpy(cameraBuffer.mapped, camera, sizeof(gpu::CameraRays));
       if (!pixels.empty())
-        std::memcpy(static_cast<char*>(cameraBuffer.mapped) + sizeof(gpu::CameraRays), pixels.data(), pixels.size_bytes());
+        std::memcpy(static_cast<char*>(cameraBuffer.mapped) + sizeof(gpu::CameraRays), pixels.data(),
+                    pixels.size_bytes());
+    } else if (kind == gpu::RayKind::Visibility) {
+      ensure(visibilityBuffer, sourceBytes);
+      writeSource(static_cast<std::byte*>(visibilityBuffer.mapped));
     } else {
       const VkDeviceSize rayBytes = rays.size() * sizeof(gpu::TraceRay);
       ensure(rayBuffer, rayBytes);
       std::memcpy(rayBuffer.mapped, rays.data(), rayBytes);
     }
-    vk::Buffer& results = kind == gpu::RayKind::Any ? occludedBuffer : hitBuffer;
+    vk::Buffer& results =
+        kind == gpu::RayKind::Any || kind == gpu::RayKind::Visibility ? occludedBuffer : hitBuffer;
     ensure(results, outBytes);
     // The shadow image and the view are bound whatever the kind: a placeholder where no trace made them yet.
     if (!image.image) image = context.createStorageImage(1, 1, 1);
@@ -1099,6 +1111,21 @@ TraceStats VulkanTracer::traceCamera(const gpu::CameraRays& camera, std::span<co
   gpu::CameraRays record = camera;
   record.size.z = static_cast<std::uint32_t>(pixels.size());
   return impl_->traceRays(gpu::RayKind::Camera, {}, hits.data(), sizeof(gpu::RayHit), &record, pixels, count);
+}
+TraceStats VulkanTracer::traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
+                                         std::span<const gpu::VisibilityReceiver> receivers,
+                                         std::span<std::uint32_t> occluded) {
+  const std::uint64_t count = checkVisibilityTrace(frame, lights, receivers, occluded.size());
+  gpu::VisibilityRays record = frame;
+  record.counts = glm::uvec4(std::uint32_t(lights.size()), std::uint32_t(receivers.size()), 0u, 0u);
+  // The record, the lights and the receivers, in the order the shader reads them.
+  auto write = [&](std::byte* to) {
+    std::memcpy(to, &record, sizeof record);
+    std::memcpy(to + sizeof record, lights.data(), lights.size_bytes());
+    std::memcpy(to + sizeof record + lights.size_bytes(), receivers.data(), receivers.size_bytes());
+  };
+  return impl_->traceRays(gpu::RayKind::Visibility, {}, occluded.data(), sizeof(std::uint32_t), nullptr, {}, count,
+                          sizeof record + lights.size_bytes() + receivers.size_bytes(), write);
 }
 const VulkanDeviceInfo& VulkanTracer::device() const { return impl_->context.info(); }
 const PipelineStats& VulkanTracer::pipelineStats() const { return impl_->pipelineStats; }

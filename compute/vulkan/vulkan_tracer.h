@@ -149,6 +149,9 @@ class VulkanTracer {
   // Tracer::traceCamera: the rays made on the device from the record; only it and the pixel list go up.
   TraceStats traceCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
                          std::span<gpu::RayHit> hits);
+  // Tracer::traceVisibility: the rays made on the device; only the record, the lights and the receivers go up.
+  TraceStats traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
+                             std::span<const gpu::VisibilityReceiver> receivers, std::span<std::uint32_t> occluded);
 
   const VulkanDeviceInfo& device() const;
   const PipelineStats& pipelineStats() const;
