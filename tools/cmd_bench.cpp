@@ -21,6 +21,7 @@
 #include "compute/cpu/cpu_tracer.h"
 #include "lighting/renderer.h"
 #include "lighting/scene.h"
+#include "tools/bench_embree.h"
 #include "tools/bench_loop.h"
 #include "tools/commands.h"
 #include "tools/resources.h"
@@ -30,19 +31,9 @@
 #include "voxel/error.h"
 
 namespace vs::cli {
-namespace {
-
-struct BenchOptions {
-  int threads = 2;
-  int resolution = 1024;
-  int reps = 5;
-  bool skipPeer = false;
-  bool vulkan = false;
-  bool frame = false;
-};
 
 // The calibration window of DESIGN.md §10: an orthographic view along d over the projection of [0,512]^3.
-gpu::TraceView calibrationView(int res) {
+gpu::TraceView city512CalibrationView(int res) {
   glm::vec3 d = glm::normalize(glm::vec3(-0.4f, -1.0f, -0.3f));
   glm::vec3 u = glm::normalize(glm::cross(glm::vec3(0, 0, 1), d));
   glm::vec3 v = glm::cross(d, u);
@@ -72,6 +63,18 @@ gpu::TraceView calibrationView(int res) {
   proj[3][2] = -dMin / (dMax - dMin);
   return gpu::makeTraceView(glm::dmat4(proj * view), res, res, gpu::VS_ENCODING_NDC_DEPTH, gpu::VS_DEPTH_POINT_ENTRY);
 }
+
+namespace {
+
+struct BenchOptions {
+  int threads = 2;
+  int resolution = 1024;
+  int reps = 5;
+  bool skipPeer = false;
+  bool vulkan = false;
+  bool frame = false;
+  bool embree = false;
+};
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -267,7 +270,7 @@ void runBench(const BenchOptions& opt) {
               static_cast<unsigned long long>(brickmap.solidCount()), buildSeconds,
               brickmap.memory().occupancyStructureBytes() / 1048576.0);
 
-  gpu::TraceView view = calibrationView(opt.resolution);
+  gpu::TraceView view = city512CalibrationView(opt.resolution);
   std::vector<gpu::TraceView> views = {view};
   const double rays = double(opt.resolution) * opt.resolution;
 
@@ -428,6 +431,11 @@ void registerBench(CLI::App& app) {
                 "instead, run a scripted game loop over the 1280x720 demo (phases still, pan, actor, dig, sun) and "
                 "print each phase's frame times beside forced full frames; CPU, and Vulkan with --vulkan");
   loopFlag->excludes(frame);
+  CLI::Option* embreeFlag = cmd->add_flag("--embree", options->embree,
+                "instead, each backend against the Embree peer (a watertight triangle mesh of the voxels) on the same "
+                "shadow texels, primary and visibility rays of city512 and of the demo scene, paired run by run; "
+                "prints `vs-embree SCENE KIND BACKEND / QUERY: RATIOx` lines");
+  embreeFlag->excludes(frame)->excludes(loopFlag);
   for (const char* other : {"--resolution", "--reps", "--no-peer"}) loopFlag->excludes(cmd->get_option(other));
   cmd->add_option("--frames", loop->frames, "--loop: frames per phase, 1..100000 (default 100)")->needs(loopFlag);
   cmd->add_option("--full-every", loop->fullEvery,
@@ -456,6 +464,11 @@ void registerBench(CLI::App& app) {
       runLoopBench(o);
     } else if (options->frame) {
       runFrameBench(*options);
+    } else if (options->embree) {
+      checkBenchRange("--threads", options->threads, 1, kMaxThreads);
+      checkBenchRange("--resolution", options->resolution, 16, 16384);
+      checkBenchRange("--reps", options->reps, 1, 1000);
+      runEmbreeBench({options->threads, options->resolution, options->reps, options->vulkan});
     } else {
       runBench(*options);
     }
