@@ -168,6 +168,12 @@ TEST(CliInputs, BenchRangeErrorsNameTheOption) {
   EXPECT_FALSE(contains(out, "--resolution")) << out;
   EXPECT_EQ(cli("bench --frame --reps 5000", out), 2) << out;
   EXPECT_TRUE(contains(out, "--reps: must be between 1 and 1000, not 5000")) << out;
+  EXPECT_EQ(cli("bench --embree --reps 0", out), 2) << out;
+  EXPECT_TRUE(contains(out, "--reps: must be between 1 and 1000, not 0")) << out;
+  EXPECT_EQ(cli("bench --embree --resolution 8", out), 2) << out;
+  EXPECT_TRUE(contains(out, "--resolution: must be between 16 and 16384, not 8")) << out;
+  EXPECT_EQ(cli("bench --embree --frame", out), 2) << out;
+  EXPECT_TRUE(contains(out, "--embree")) << out;
 }
 
 // build.sh passes the targets it is given to CMake (run-demo.sh: only the CLI), and builds everything

@@ -247,6 +247,60 @@ void benchRayKinds(RayBench& b, Tracer& tracer, int reps, const char* label) {
               median(ratios), ratios.front(), ratios.back());
 }
 
+// Every lane width of the CPU fast path that this processor runs, on each ray kind, against the one the
+// dispatcher picks for `picked` (the widest), pairs run back to back: the figures behind the dispatcher's
+// rule, which a processor of another vendor may not back. Preconditions: benchRayKinds filled b.
+void benchLaneWidths(const SceneData& scene, std::span<const gpu::TraceView> views, double texels, RayBench& b,
+                     Tracer& picked, const BenchOptions& opt) {
+  if (!picked.cpu() || !picked.cpu()->hasBoxTable()) {
+    std::printf("lane widths: not compared (no box table: the portable tiles run)\n");
+    return;
+  }
+  struct Path {
+    CpuTracePath path;
+    LaneWidth width;
+    const char* name;
+  };
+  const Path paths[] = {{CpuTracePath::LanesAvx512, LaneWidth::Avx512, "avx512"},
+                        {CpuTracePath::LanesAvx2, LaneWidth::Avx2, "avx2"},
+                        {CpuTracePath::LanesScalar, LaneWidth::Scalar, "scalar"}};
+  std::vector<ShadowLayer> layers;
+  std::vector<gpu::RayHit> hits(b.rays.size());
+  std::vector<std::uint32_t> occluded(b.visibility.size());
+  struct Kind {
+    const char* name;
+    double rays;
+    std::function<double(Tracer&)> run;  // seconds of one call
+  };
+  const Kind kinds[] = {
+      {"shadow", texels, [&](Tracer& t) { return raySeconds(t.traceShadow(views, layers)); }},
+      {"primary", double(b.rays.size()), [&](Tracer& t) { return raySeconds(t.traceClosest(b.rays, hits)); }},
+      {"visibility", double(b.visibility.size()),
+       [&](Tracer& t) { return raySeconds(t.traceAny(b.visibility, occluded)); }},
+  };
+  std::printf("lane widths of the cpu fast path (the dispatcher picks %s):\n", laneWidthName(widestLaneWidth()));
+  for (const Path& p : paths) {
+    if (!laneWidthSupported(p.width)) {
+      std::printf("lanes %s: not run, this processor lacks it\n", p.name);
+      continue;
+    }
+    std::unique_ptr<Tracer> tracer = makeCpuTracer({p.path, opt.threads});
+    tracer->setScene(scene);
+    for (const Kind& k : kinds) {
+      k.run(*tracer);  // warm-up
+      std::vector<double> seconds, ratios;
+      for (int r = 0; r < opt.reps; ++r) {
+        seconds.push_back(k.run(*tracer));
+        ratios.push_back(k.run(picked) / seconds.back());
+      }
+      std::sort(ratios.begin(), ratios.end());
+      std::printf("lanes %s %s: %.2f Mrays/s, %.2fx the picked width's speed (median of %d pairs, range %.2f-%.2fx)\n",
+                  p.name, k.name, k.rays / median(seconds) / 1e6, median(ratios), opt.reps, ratios.front(),
+                  ratios.back());
+    }
+  }
+}
+
 // Each option out of its range is refused by name, before any work.
 void checkBenchRange(const char* option, int value, int lo, int hi) {
   if (value < lo || value > hi)
@@ -314,6 +368,7 @@ void runBench(const BenchOptions& opt) {
               "sun\n", primary.rays.size(), kCameraWidth, kCameraHeight);
   benchRayKinds(primary, *fast, opt.reps, "cpu interleaved");
   if (opt.vulkan) benchRayKinds(primary, *vb.tracer, opt.reps, "vulkan");
+  benchLaneWidths(scene, views, rays, primary, *fast, opt);
   if (opt.skipPeer) return;
 
   OpenVdbPeer peer(objects, scene);

@@ -113,8 +113,14 @@ TestScene thirdPartyAssetsScene() {
   std::sort(files.begin(), files.end());
   if (files.size() < 7) throw std::runtime_error("expected at least 7 .vdb files in " + (sharedAssets() / "vdb").string());
   double x = 0.0;
+  // Known files, loaded in the process: tests build this scene after a Vulkan device and TBB have started
+  // their threads, and a checking child forked then was seen to hang once under AddressSanitizer in
+  // ctest -j2 (not reproduced alone; a lock held by another thread at the fork is the likely cause). The
+  // forked check has its own tests.
+  LoadOptions options;
+  options.checkInChildProcess = false;
   for (const auto& file : files) {
-    VoxelObject object = loadVdb(file.string());
+    VoxelObject object = loadVdb(file.string(), options);
     if (object.brickmap.solidCount() == 0) continue;
     auto index = static_cast<std::uint32_t>(scene.brickmaps.size());
     VoxelBox b = object.brickmap.bounds();
