@@ -81,6 +81,9 @@ OIIO::ImageSpec exrSpec(const BakedView& v, int displayWidth, int displayHeight)
   spec.full_height = displayHeight;
   spec.channelnames = {"Z"};
   spec.attribute("compression", "zip");
+  // No capture date: OpenImageIO stamps the writing time otherwise, and a bake's files must depend on its
+  // inputs alone, so that a merge of shards baked elsewhere is the very file one machine would write.
+  spec.attribute("DateTime", "");
   spec.attribute("oiio:subimagename", v.name);
   spec.attribute("voxshadow:light", v.light);
   spec.attribute("voxshadow:view", v.name);

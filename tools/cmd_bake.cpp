@@ -2,6 +2,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
+
+#include <unistd.h>
 
 #include "compute/tracer.h"
 #include "compute/vulkan/vulkan_tracer.h"
@@ -10,12 +13,17 @@
 #include "tools/atomic_file.h"
 #include "tools/resources.h"
 #include "tools/bake_output.h"
+#include "tools/bake_shards.h"
 #include "tools/commands.h"
 #include "tools/file_kind.h"
 #include "tools/progress.h"
 #include "voxel/error.h"
 
 namespace vs::cli {
+
+namespace fs = std::filesystem;
+
+std::pair<int, int> parseShard(const std::string& text);
 
 namespace {
 
@@ -187,6 +195,221 @@ BakedView toBaked(const LightView& v, ShadowLayer&& layer) {
   return b;
 }
 
+// The views' metadata as the EXR and its sidecar carry it (texels left empty).
+std::vector<BakedView> viewRecords(const std::vector<LightView>& views) {
+  std::vector<BakedView> records;
+  for (const LightView& v : views) {
+    ShadowLayer empty;
+    empty.width = v.trace.info.x;
+    empty.height = v.trace.info.y;
+    records.push_back(toBaked(v, std::move(empty)));
+  }
+  return records;
+}
+
+// The live instances' world boxes: what the shard plan weighs tiles by.
+std::vector<Aabb> casterBoxes(const Scene& scene) {
+  const SceneData& data = scene.data();
+  std::vector<Aabb> boxes;
+  for (std::size_t i = 0; i < data.instanceBounds.size(); ++i)
+    if (i >= data.instanceSlots.size() || data.instanceSlots[i]) boxes.push_back(data.instanceBounds[i]);
+  return boxes;
+}
+
+// Traces the tiles of shard `k` and returns their texels in the part's order. Each run of tiles along one row
+// of one layer is one trace call (its rectangle): a texel's ray depends on its view and coordinates alone, so
+// the texels are those of a whole-layer bake, bit for bit.
+std::vector<float> traceShard(const Scene& scene, const std::vector<LightView>& views, const ShardPlan& plan, int k,
+                              Tracer& tracer) {
+  std::span<const ShardTile> tiles = plan.shardTiles(k);
+  std::uint64_t total = 0, done = 0;
+  for (const ShardTile& t : tiles) total += t.texels();
+  std::vector<float> texels;
+  texels.reserve(total);
+  Progress progress("tracing shard " + std::to_string(k) + " of " + std::to_string(plan.shards) +
+                    (tracer.vulkan() ? " (" + tracer.deviceName() + ")" : ""));
+  tracer.setScene(scene.data());
+  std::vector<ShadowLayer> layer(1);
+  int layerView = -1;
+  for (std::size_t i = 0; i < tiles.size();) {
+    std::size_t end = i + 1;
+    while (end < tiles.size() && tiles[end].view == tiles[i].view && tiles[end].y0 == tiles[i].y0) ++end;
+    if (tiles[i].view != layerView) {
+      layer[0] = ShadowLayer{};
+      layerView = tiles[i].view;
+    }
+    gpu::TraceView run = views[std::size_t(layerView)].trace;
+    run.rect = glm::ivec4(tiles[i].x0, tiles[i].y0, tiles[end - 1].x1, tiles[i].y1);
+    tracer.traceShadow(std::span<const gpu::TraceView>(&run, 1), layer);
+    for (std::size_t t = i; t < end; ++t) {
+      for (int y = tiles[t].y0; y < tiles[t].y1; ++y) {
+        const float* row = &layer[0].texels[std::size_t(y) * std::size_t(layer[0].width) + std::size_t(tiles[t].x0)];
+        texels.insert(texels.end(), row, row + (tiles[t].x1 - tiles[t].x0));
+      }
+      done += tiles[t].texels();
+    }
+    progress.update(done, total);
+    i = end;
+  }
+  progress.finish();
+  return texels;
+}
+
+// Host memory of a shard: the largest layer it touches (traced whole-layer sized) and its own texels.
+void checkShardMemory(const Scene& scene, const std::vector<LightView>& views, const ShardPlan& plan, int k,
+                      const BakeOptions& options) {
+  std::uint64_t texels = 0, largest = 0;
+  for (const ShardTile& t : plan.shardTiles(k)) {
+    texels += t.texels();
+    largest = std::max(largest, layerBytes(views[std::size_t(t.view)]));
+  }
+  checkMemoryNeed(texels * sizeof(float) + largest, memoryBudget(options.memoryBudget, tracingCommandThreads(options.threads)),
+                  scene.desc().file.string() + ": shard " + std::to_string(k) + " of " + std::to_string(plan.shards) +
+                      " (" + std::to_string(texels) + " texels)",
+                  "bake in more shards or lower the lights' shadow.resolution");
+}
+
+std::string hostName() {
+  char name[256] = {};
+  if (gethostname(name, sizeof(name) - 1) != 0) return "";
+  return name;
+}
+
+// The shards of one bake, traced on this machine one after another into part files. The scene, its views,
+// the plan and the tracer are made once, on the first shard that needs them.
+class ShardBaker {
+ public:
+  ShardBaker(const BakeOptions& options, const SceneDesc& desc, const BakeInputs& inputs, int shards)
+      : options_(options), desc_(desc), inputs_(inputs), shards_(shards) {}
+
+  void bake(int k, const std::filesystem::path& part) {
+    if (!scene_) {
+      scene_.emplace(Scene::load(SceneDesc(desc_)));
+      views_ = scene_->lightViews();
+      if (views_.empty()) throwBadInput(desc_.file.string() + ": lights: no light casts a shadow, nothing to bake");
+      plan_ = planShards(views_, casterBoxes(*scene_), shards_);
+    }
+    checkShardMemory(*scene_, views_, plan_, k, options_);
+    if (!tracer_) {
+      if (options_.backend == "cpu") {
+        tracer_ = makeCpuTracer({CpuTracePath::Interleaved, options_.threads});
+      } else {
+        tracer_ = openVulkanBackend(options_.device);
+      }
+    }
+    if (tracer_->vulkan()) {
+      std::vector<LightView> touched;
+      for (const ShardTile& t : plan_.shardTiles(k))
+        if (touched.empty() || touched.back().name != views_[std::size_t(t.view)].name)
+          touched.push_back(views_[std::size_t(t.view)]);
+      checkDeviceFits(*scene_, touched, tracer_->vulkan()->device());
+    }
+    auto t0 = Clock::now();
+    std::vector<float> texels = traceShard(*scene_, views_, plan_, k, *tracer_);
+    nlohmann::json assets = nlohmann::json::array();
+    for (const BakeInputs::Asset& a : inputs_.assets) assets.push_back(a.file.string());
+    const nlohmann::json producer = {{"scene", desc_.file.string()},
+                                     {"assets", std::move(assets)},
+                                     {"backend", tracer_->vulkan() ? "vulkan: " + tracer_->deviceName() : "cpu"},
+                                     {"host", hostName()}};
+    writeBakePart(part, partManifest(inputs_, plan_, k, viewRecords(views_), producer), texels);
+    std::printf("baked shard %d of %d (%zu tiles, %zu texels, %.2f s) into %s\n", k, shards_,
+                plan_.shardTiles(k).size(), texels.size(), secondsSince(t0), part.c_str());
+    std::fflush(stdout);
+  }
+
+ private:
+  const BakeOptions& options_;
+  const SceneDesc& desc_;
+  const BakeInputs& inputs_;
+  int shards_;
+  std::optional<Scene> scene_;
+  std::vector<LightView> views_;
+  ShardPlan plan_;
+  std::unique_ptr<Tracer> tracer_;
+};
+
+void checkShardOptions(const BakeOptions& options) {
+  if (options.shard && (options.shards || options.partsDir || options.missingShards))
+    throwBadInput("--shard bakes one part file; it cannot be combined with --shards, --parts or --missing-shards");
+  if (options.shard) {
+    if (options.output.empty()) throwBadInput("--shard needs -o PART.vspart, the part file to write");
+    if (!hasExtension(options.output, ".vspart"))
+      throwBadInput(options.output.string() + ": a shard's output must be a .vspart part file");
+    if (options.preview) throwBadInput("--preview: a shard writes no preview (merge the parts with --preview)");
+    return;
+  }
+  if (options.shards && !options.partsDir) throwBadInput("--shards needs --parts DIR, where the part files go");
+  if (options.partsDir && !options.shards) throwBadInput("--parts needs --shards N");
+  if (options.missingShards && !options.shards) throwBadInput("--missing-shards needs --shards N and --parts DIR");
+  if (options.partsDir) {
+    std::error_code ec;
+    if (fs::exists(*options.partsDir, ec) && !fs::is_directory(*options.partsDir, ec))
+      throwBadInput(options.partsDir->string() + ": --parts must be a directory");
+  }
+}
+
+// bake --shard K/N -o PART: one shard, or nothing when PART already holds it for the same inputs.
+void runBakeShard(const BakeOptions& options) {
+  const auto [k, n] = *options.shard;
+  checkInputBytes(options.scene, InputKind::Scene);
+  SceneDesc desc = parseSceneFile(options.scene);
+  checkSceneAssetBytes(desc);
+  checkCommandOutputs(desc, {options.output});
+  const BakeInputs inputs = hashBakeInputs(desc);
+  std::string why;
+  if (partUpToDate(options.output, inputs, k, n, &why)) {
+    std::printf("up to date: %s\n", options.output.c_str());
+    return;
+  }
+  ShardBaker(options, desc, inputs, n).bake(k, options.output);
+}
+
+// bake --shards N --parts DIR [-o OUT.exr | --missing-shards]: the shards whose parts are missing or stale,
+// then the merge; or only the list of those shards.
+void runShardedBake(const BakeOptions& options) {
+  const int n = *options.shards;
+  if (n < 1 || n > kMaxShards)
+    throwBadInput("--shards: must be between 1 and " + std::to_string(kMaxShards) + ", not " + std::to_string(n));
+  checkInputBytes(options.scene, InputKind::Scene);
+  SceneDesc desc = parseSceneFile(options.scene);
+  checkSceneAssetBytes(desc);
+  const BakeInputs inputs = hashBakeInputs(desc);
+  const fs::path dir = *options.partsDir;
+  std::vector<fs::path> parts;
+  std::vector<int> stale;
+  for (int k = 0; k < n; ++k) {
+    parts.push_back(dir / partFileName(k, n));
+    if (!partUpToDate(parts.back(), inputs, k, n)) stale.push_back(k);
+  }
+  if (options.missingShards) {
+    for (std::size_t i = 0; i < stale.size(); ++i) std::printf("%s%d", i ? "," : "", stale[i]);
+    std::printf("\n");
+    return;
+  }
+  if (options.output.empty()) throwBadInput("-o,--output is required (or --missing-shards)");
+  if (!hasExtension(options.output, ".exr")) throwBadInput(options.output.string() + ": the output must be an .exr file");
+  if (options.preview && !hasExtension(*options.preview, ".png"))
+    throwBadInput(options.preview->string() + ": the preview must be a .png file");
+  std::vector<fs::path> outputs = {options.output, sidecarPath(options.output)};
+  if (options.preview) outputs.push_back(*options.preview);
+  checkCommandOutputs(desc, outputs, kMaxShadowFileNameBytes);
+  refuseOutputsOverInputs(outputs, parts, std::vector<std::string>(parts.size(), "part"));
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throwBadInput(dir.string() + ": cannot create the parts directory: " + ec.message());
+  checkCommandOutputs(desc, parts);
+  std::printf("%zu of %d shard%s to bake, %zu up to date in %s\n", stale.size(), n, n == 1 ? "" : "s",
+              std::size_t(n) - stale.size(), dir.c_str());
+  std::fflush(stdout);
+  ShardBaker baker(options, desc, inputs, n);
+  for (int k : stale) baker.bake(k, parts[std::size_t(k)]);
+  std::vector<BakedView> views = mergeBakeParts(parts);
+  writeBakeOutputs(options.output, options.preview, views);
+  std::printf("merged %d part%s into %s\n", n, n == 1 ? "" : "s", options.output.c_str());
+  if (options.preview) std::printf("preview: %s\n", options.preview->c_str());
+}
+
 }  // namespace
 
 void checkCommandOutputs(const SceneDesc& scene, const std::vector<std::filesystem::path>& outputs,
@@ -224,16 +447,20 @@ std::unique_ptr<Tracer> openVulkanBackend(const std::string& device) {
 
 void runBake(const BakeOptions& options) {
   // Every check of the user's paths comes before the scene is loaded or traced.
-  if (!hasExtension(options.output, ".exr"))
-    throwBadInput(options.output.string() + ": the output must be an .exr file");
-  if (options.preview && !hasExtension(*options.preview, ".png"))
-    throwBadInput(options.preview->string() + ": the preview must be a .png file");
   if (options.backend != "cpu" && options.backend != "vulkan")
     throwBadInput("unknown backend '" + options.backend + "' (cpu or vulkan)");
   if (!options.device.empty() && options.backend != "vulkan")
     throwBadInput("--device chooses a Vulkan device; it needs --backend vulkan");
   if (options.threads < 0 || options.threads > kMaxThreads)
     throwBadInput("--threads: must be between 0 and " + std::to_string(kMaxThreads) + ", not " + std::to_string(options.threads));
+  checkShardOptions(options);
+  if (options.shard) return runBakeShard(options);
+  if (options.shards) return runShardedBake(options);
+  if (options.output.empty()) throwBadInput("-o,--output is required");
+  if (!hasExtension(options.output, ".exr"))
+    throwBadInput(options.output.string() + ": the output must be an .exr file");
+  if (options.preview && !hasExtension(*options.preview, ".png"))
+    throwBadInput(options.preview->string() + ": the preview must be a .png file");
 
   auto t0 = Clock::now();
   checkInputBytes(options.scene, InputKind::Scene);
@@ -320,7 +547,8 @@ void registerBake(CLI::App& app) {
   auto options = std::make_shared<BakeOptions>();
   CLI::App* sub = app.add_subcommand("bake", "Trace a scene's shadow maps into a multi-layer EXR (+ JSON sidecar)");
   sub->add_option("SCENE", options->scene, "Scene file (JSON, version 1)")->required();
-  sub->add_option("-o,--output", options->output, "Output .exr (its directory must exist)")->required();
+  sub->add_option("-o,--output", options->output,
+                  "Output .exr (its directory must exist); with --shard, the shard's .vspart part file");
   sub->add_option("--backend", options->backend, "Trace backend")
       ->check(CLI::IsMember({"cpu", "vulkan"}))
       ->capture_default_str();
@@ -335,7 +563,31 @@ void registerBake(CLI::App& app) {
                   "Vulkan device: an index or part of a name from `voxshadow info --devices` (default: best)");
   sub->add_flag("--stats", options->stats,
                 "Print timings and ray throughput (Vulkan: per-view GPU time and the pipeline creation time)");
+  sub->add_option_function<std::string>(
+         "--shard", [options](const std::string& text) { options->shard = parseShard(text); },
+         "Bake only shard K of N (0 <= K < N) into the part file -o PART.vspart; nothing when it is up to date")
+      ->type_name("K/N");
+  sub->add_option("--shards", options->shards, "With --parts: bake in N shards on this machine, then merge")
+      ->type_name("N");
+  sub->add_option("--parts", options->partsDir,
+                  "With --shards: the directory of the part files (kept: a rerun bakes only missing or stale parts)")
+      ->type_name("DIR");
+  sub->add_flag("--missing-shards", options->missingShards,
+                "With --shards and --parts: print the shards whose parts are missing or stale (K,K,...) and stop");
   sub->callback([options] { runBake(*options); });
+}
+
+std::pair<int, int> parseShard(const std::string& text) {
+  auto bad = [&] {
+    throwBadInput("--shard: expected K/N with 0 <= K < N <= " + std::to_string(kMaxShards) + ", not '" + text + "'");
+  };
+  const std::size_t slash = text.find('/');
+  if (slash == std::string::npos || slash == 0 || slash + 1 == text.size() || slash > 4 || text.size() - slash - 1 > 4) bad();
+  const std::string a = text.substr(0, slash), b = text.substr(slash + 1);
+  if (a.find_first_not_of("0123456789") != std::string::npos || b.find_first_not_of("0123456789") != std::string::npos) bad();
+  const int k = std::stoi(a), n = std::stoi(b);
+  if (n < 1 || n > kMaxShards || k >= n) bad();
+  return {k, n};
 }
 
 }  // namespace vs::cli

@@ -23,6 +23,8 @@ namespace vs::cli {
 void registerInfo(CLI::App& app);  // voxshadow info FILE... [--json] | info --devices [--json]
 void registerDemo(CLI::App& app);  // voxshadow demo [--out DIR]
 void registerBake(CLI::App& app);  // voxshadow bake SCENE -o OUT.exr [--backend] [--device] [--preview] [--threads] [--stats]
+                                   //   [--shard K/N | --shards N --parts DIR [--missing-shards]]
+void registerMerge(CLI::App& app); // voxshadow merge PART... -o OUT.exr [--preview P.png]
 void registerBench(CLI::App& app); // voxshadow bench [--threads N] [--resolution R] [--reps K] [--vulkan]
 void registerConvert(CLI::App& app); // voxshadow convert IN.vox OUT.vdb [--frame F]
 void registerRender(CLI::App& app);  // voxshadow render SCENE -o OUT.png|OUT.exr [--backend] [--shadows] [--debug] [--memory-budget]
@@ -36,6 +38,13 @@ struct BakeOptions {
   std::optional<std::uint64_t> memoryBudget;    // bytes; unset: the memory available now (memoryBudget())
   std::string device;                           // Vulkan backend: index (digits) or name part; empty = best
   bool stats = false;
+  // Sharded bakes (tools/bake_shards.h): `shard` = (K, N) bakes shard K of N into the part file `output`
+  // (.vspart); `shards` = N with `partsDir` bakes the shards whose parts in partsDir are missing or stale and
+  // merges them into `output` (.exr), or with `missingShards` only prints those shards' numbers.
+  std::optional<std::pair<int, int>> shard;
+  std::optional<int> shards;
+  std::optional<std::filesystem::path> partsDir;
+  bool missingShards = false;
 };
 
 // The bake shared by `bake` and `demo`. Preconditions: none; bad paths or scenes throw vs::Error(BadInput)

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages that building and testing voxshadow need (clang and llvm for the sanitizer
 # build and the fuzzers, python3-matplotlib for `bench --loop --plot`, libembree-dev for the bench's Embree
-# peer), only those missing.
+# peer, slurm-wlm and munge for the single-node cluster of the Farm tests), only those missing.
 # Idempotent; run as root (or with sudo available). Safe to run on every build.
 set -euo pipefail
 
@@ -14,6 +14,7 @@ packages=(
   libopenimageio-dev openimageio-tools
   libgtest-dev libcli11-dev nlohmann-json3-dev
   libembree-dev
+  slurm-wlm munge
   python3-matplotlib
   clang-14 libclang-rt-14-dev llvm-14
   ccache

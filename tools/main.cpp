@@ -80,6 +80,7 @@ int main(int argc, char** argv) {
   vs::cli::registerInfo(app);
   vs::cli::registerDemo(app);
   vs::cli::registerBake(app);
+  vs::cli::registerMerge(app);
   vs::cli::registerRender(app);
   vs::cli::registerBench(app);
   vs::cli::registerConvert(app);

@@ -42,8 +42,11 @@ export UBSAN_OPTIONS="$UBSAN_OPTIONS:log_path=$logs/report"
 # And FrameLoop.SoakKeepsMemoryFlat: ASan's quarantine keeps freed memory resident by design, so resident memory
 # is no measure of a leak there; the plain suite runs it (and LeakSanitizer checks every test here). The random
 # frame-loop tests run 100 frames here instead of 500: each frame is compared with a new renderer.
+# And Farm.SlurmArrayWithARequeuedShardEqualsTheLocalBake: it tests the Slurm scripts and daemons (about 40 s of
+# cluster start, requeue delay and stop); the bakes it runs are the shard bakes and merges that the other Farm
+# tests run here under the sanitizers.
 export VOXSHADOW_FRAME_LOOP_FRAMES=100
-excluded='^(FrameLoop\.SoakKeepsMemoryFlat|TraceCpuReference\.InstancedViews|CliSignals\.KilledBakesLeaveWholeOutputsAndNoTemporaries|CliHardening\.ThousandsOfViewsAreBatchedAndPreviewed|CliResources\.(BakeUnderAnAddressSpaceLimitIsRefusedBeforeTracing|ADataLimitSetsTheBudgetToo|RenderChecksItsMemoryBeforeAnyWork))$'
+excluded='^(FrameLoop\.SoakKeepsMemoryFlat|TraceCpuReference\.InstancedViews|CliSignals\.KilledBakesLeaveWholeOutputsAndNoTemporaries|CliHardening\.ThousandsOfViewsAreBatchedAndPreviewed|CliResources\.(BakeUnderAnAddressSpaceLimitIsRefusedBeforeTracing|ADataLimitSetsTheBudgetToo|RenderChecksItsMemoryBeforeAnyWork)|Farm\.SlurmArrayWithARequeuedShardEqualsTheLocalBake)$'
 cd "$build"
 status=0
 ctest --output-on-failure -j "$jobs" --timeout 900 -E "$excluded" || status=$?
