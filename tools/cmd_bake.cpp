@@ -388,11 +388,7 @@ void runShardedBake(const BakeOptions& options) {
     return;
   }
   if (options.output.empty()) throwBadInput("-o,--output is required (or --missing-shards)");
-  if (!hasExtension(options.output, ".exr")) throwBadInput(options.output.string() + ": the output must be an .exr file");
-  if (options.preview && !hasExtension(*options.preview, ".png"))
-    throwBadInput(options.preview->string() + ": the preview must be a .png file");
-  std::vector<fs::path> outputs = {options.output, sidecarPath(options.output)};
-  if (options.preview) outputs.push_back(*options.preview);
+  const std::vector<fs::path> outputs = bakeOutputPaths(options.output, options.preview);
   checkCommandOutputs(desc, outputs, kMaxShadowFileNameBytes);
   refuseOutputsOverInputs(outputs, parts, std::vector<std::string>(parts.size(), "part"));
   std::error_code ec;
@@ -411,6 +407,14 @@ void runShardedBake(const BakeOptions& options) {
 }
 
 }  // namespace
+
+std::vector<fs::path> bakeOutputPaths(const fs::path& exr, const std::optional<fs::path>& preview) {
+  if (!hasExtension(exr, ".exr")) throwBadInput(exr.string() + ": the output must be an .exr file");
+  if (preview && !hasExtension(*preview, ".png")) throwBadInput(preview->string() + ": the preview must be a .png file");
+  std::vector<fs::path> outputs = {exr, sidecarPath(exr)};
+  if (preview) outputs.push_back(*preview);
+  return outputs;
+}
 
 void checkCommandOutputs(const SceneDesc& scene, const std::vector<std::filesystem::path>& outputs,
                          std::size_t maxFirstNameBytes) {
@@ -457,17 +461,12 @@ void runBake(const BakeOptions& options) {
   if (options.shard) return runBakeShard(options);
   if (options.shards) return runShardedBake(options);
   if (options.output.empty()) throwBadInput("-o,--output is required");
-  if (!hasExtension(options.output, ".exr"))
-    throwBadInput(options.output.string() + ": the output must be an .exr file");
-  if (options.preview && !hasExtension(*options.preview, ".png"))
-    throwBadInput(options.preview->string() + ": the preview must be a .png file");
+  const std::vector<fs::path> outputs = bakeOutputPaths(options.output, options.preview);
 
   auto t0 = Clock::now();
   checkInputBytes(options.scene, InputKind::Scene);
   SceneDesc desc = parseSceneFile(options.scene);
   checkSceneAssetBytes(desc);
-  std::vector<std::filesystem::path> outputs = {options.output, sidecarPath(options.output)};
-  if (options.preview) outputs.push_back(*options.preview);
   checkCommandOutputs(desc, outputs, kMaxShadowFileNameBytes);
 
   Scene scene = Scene::load(std::move(desc));

@@ -6,7 +6,6 @@
 #include "tools/bake_output.h"
 #include "tools/bake_shards.h"
 #include "tools/commands.h"
-#include "tools/file_kind.h"
 #include "tools/resources.h"
 #include "voxel/error.h"
 
@@ -22,11 +21,7 @@ struct MergeOptions {
 };
 
 void runMerge(const MergeOptions& options) {
-  if (!hasExtension(options.output, ".exr")) throwBadInput(options.output.string() + ": the output must be an .exr file");
-  if (options.preview && !hasExtension(*options.preview, ".png"))
-    throwBadInput(options.preview->string() + ": the preview must be a .png file");
-  std::vector<std::filesystem::path> outputs = {options.output, sidecarPath(options.output)};
-  if (options.preview) outputs.push_back(*options.preview);
+  const std::vector<std::filesystem::path> outputs = bakeOutputPaths(options.output, options.preview);
   refuseOutputsOverInputs(outputs, options.parts, std::vector<std::string>(options.parts.size(), "part"));
   for (std::size_t i = 0; i < outputs.size(); ++i) checkOutputDirectory(outputs[i], i == 0 ? kMaxShadowFileNameBytes : 255);
   // The parts are read whole and the layers assembled beside them: twice the parts' bytes at the peak.

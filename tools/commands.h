@@ -68,6 +68,11 @@ struct RenderCommandOptions {
 // vs::Error(BadInput) before any tracing, and a failure leaves no output file.
 void runRender(const RenderCommandOptions& options);
 
+// A bake's outputs: the EXR, its sidecar and, when given, the preview. Refuses (vs::Error(BadInput)) an EXR
+// path without the .exr extension or a preview without .png.
+std::vector<std::filesystem::path> bakeOutputPaths(const std::filesystem::path& exr,
+                                                   const std::optional<std::filesystem::path>& preview);
+
 // Refuses (vs::Error(BadInput), before any work) outputs that would overwrite the scene file or one of its
 // assets (refuseOutputsOverInputs), and checks each output's directory (checkOutputDirectory; the first output
 // with maxFirstNameBytes).
