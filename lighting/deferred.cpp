@@ -6,6 +6,8 @@
 
 #include <tbb/parallel_for.h>
 
+#include "lighting/evsm.h"
+#include "lighting/shared/evsm.h"
 #include "voxel/error.h"
 
 namespace vs {
@@ -20,6 +22,8 @@ struct CpuShading {
   const ShadeLight* shadeLights;
   const uint* rayVisibility;
   float* shadowTerms;
+  const vec4* momentTexels;
+  vec4 vsLoadMoments(int i) const { return momentTexels[i]; }
 #include "lighting/shared/shading.h"
 };
 
@@ -34,6 +38,7 @@ int filterCode(ShadowFilter f) {
     case ShadowFilter::Pcf5: return gpu::VS_FILTER_PCF5;
     case ShadowFilter::Poisson16: return gpu::VS_FILTER_POISSON16;
     case ShadowFilter::Pcss: return gpu::VS_FILTER_PCSS;
+    case ShadowFilter::Evsm: return gpu::VS_FILTER_EVSM;
   }
   return gpu::VS_FILTER_HARD;
 }
@@ -64,6 +69,7 @@ ShadeInputs makeShadeInputs(const SceneDesc& scene, std::span<const LightView> v
     std::copy(layer.texels.begin(), layer.texels.end(), in.shadowTexels.begin() + std::ptrdiff_t(at));
     at += layer.texels.size();
   }
+  computeMomentsOnCpu(in, momentWork(views, in, wholeMomentRects(in)), in.moments);
   return in;
 }
 
@@ -76,9 +82,15 @@ ShadeInputs makeShadeRecords(const SceneDesc& scene, std::span<const LightView> 
     sv.eyeToClip = glm::mat4(v.eyeToClip);
     sv.clipToEye = v.trace.clipToEye;
     sv.eye = glm::vec4(glm::vec3(v.trace.eyeHigh), float(v.texelWorld));
-    sv.eyeLow = glm::vec4(glm::vec3(v.trace.eyeLow), 0.0f);
+    sv.eyeLow = glm::vec4(glm::vec3(v.trace.eyeLow), float(1.0 / double(v.range)));
     const glm::ivec2 ring = ringOffset(v);
-    sv.trace = glm::ivec4(v.depthPoint, ring.x, ring.y, 0);
+    const LightDesc& light = scene.lights[std::size_t(v.lightIndex)];
+    int moments = -1;
+    if (light.shadow && light.shadow->filter == ShadowFilter::Evsm && !raytraced) {
+      moments = int(in.momentTexels);
+      in.momentTexels += std::size_t(v.resolution) * std::size_t(v.resolution);
+    }
+    sv.trace = glm::ivec4(v.depthPoint, ring.x, ring.y, moments);
     // World units per unit of encoded depth: an orthographic view's NDC depth is linear in the distance along
     // the light, at the rate of its projection's z row.
     double depthScale = 1.0;
@@ -109,6 +121,9 @@ ShadeInputs makeShadeRecords(const SceneDesc& scene, std::span<const LightView> 
       contact = l.shadow->contactShadow;
       sl.extra = glm::vec4(float(std::cos(glm::radians(double(l.innerConeDeg)))), contact, l.shadow->cascadeBlend, 0.0f);
       sl.info = glm::ivec4(lightCode(l.type), count > 0 ? filterCode(l.shadow->filter) : gpu::VS_FILTER_NONE, first, count);
+      if (l.shadow->filter == ShadowFilter::Evsm)
+        sl.evsm = glm::vec4(l.shadow->evsmPositiveExponent, l.shadow->evsmNegativeExponent, l.shadow->lightBleedReduction,
+                            float(l.shadow->evsmBlur));
     } else {
       sl.extra = glm::vec4(float(std::cos(glm::radians(double(l.innerConeDeg)))), 0.0f, 0.0f, 0.0f);
       sl.info = glm::ivec4(lightCode(l.type), gpu::VS_FILTER_NONE, 0, 0);
@@ -158,13 +173,16 @@ ShadeOutput shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, co
                        std::span<const std::uint32_t> rayVisibility) {
   std::vector<std::uint32_t> clear;
   rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
+  if (inputs.moments.size() != inputs.momentTexels)
+    throwBadInput("lighting: the EVSM moment store holds " + std::to_string(inputs.moments.size()) + " texels, its views " +
+                  std::to_string(inputs.momentTexels));
   const std::size_t pixels = gbuffer.texels.size();
   const std::size_t lights = inputs.lights.size();
   ShadeOutput out;
   out.color.resize(pixels);
   out.shadowTerms.resize(pixels * lights);
   gpu::CpuShading shading{inputs.shadowTexels.data(), inputs.views.data(), inputs.lights.data(), rayVisibility.data(),
-                          out.shadowTerms.data()};
+                          out.shadowTerms.data(), inputs.moments.data()};
   tbb::parallel_for(0, push.size.y, [&](int y) {
     for (int x = 0; x < push.size.x; ++x) {
       const int pixel = y * push.size.x + x;
@@ -178,11 +196,14 @@ void shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBu
                 std::span<const std::uint32_t> rayVisibility, std::span<const std::uint32_t> pixels, ShadeOutput& out) {
   std::vector<std::uint32_t> clear;
   rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
+  if (inputs.moments.size() != inputs.momentTexels)
+    throwBadInput("lighting: the EVSM moment store holds " + std::to_string(inputs.moments.size()) + " texels, its views " +
+                  std::to_string(inputs.momentTexels));
   const std::size_t lights = inputs.lights.size();
   if (out.color.size() != gbuffer.texels.size() || out.shadowTerms.size() != gbuffer.texels.size() * lights)
     throwBadInput("lighting: the output to update is not sized for this frame");
   gpu::CpuShading shading{inputs.shadowTexels.data(), inputs.views.data(), inputs.lights.data(), rayVisibility.data(),
-                          out.shadowTerms.data()};
+                          out.shadowTerms.data(), inputs.moments.data()};
   tbb::parallel_for(std::size_t(0), pixels.size(), [&](std::size_t k) {
     const std::uint32_t pixel = pixels[k];
     out.color[pixel] = shading.vsShadePixel(push, int(pixel), gbuffer.texels[pixel]);
@@ -192,7 +213,8 @@ void shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBu
 float shadowTermAt(const ShadeInputs& inputs, std::size_t light, const gpu::GBufferTexel& texel,
                    std::uint32_t visibility, bool raytraced) {
   if (light >= inputs.lights.size()) throwBadInput("lighting: no light " + std::to_string(light));
-  gpu::CpuShading shading{inputs.shadowTexels.data(), inputs.views.data(), inputs.lights.data(), nullptr, nullptr};
+  gpu::CpuShading shading{inputs.shadowTexels.data(), inputs.views.data(), inputs.lights.data(), nullptr, nullptr,
+                          inputs.moments.data()};
   return shading.vsShadowTerm(inputs.lights[light], texel, visibility, raytraced);
 }
 

@@ -25,11 +25,16 @@ struct ShadeInputs {
   // Per light: the length of its visibility rays (0: none needed; a contact-shadow length; or, for
   // ray-traced shadows, unbounded as -1).
   std::vector<float> rayLength;
+  // EVSM (lighting/evsm.h): texels of the moment store that the views of EVSM lights index (ShadeView.trace.w),
+  // and the store itself for the CPU pass (computeMomentsOnCpu fills it; the Vulkan pass keeps its own).
+  std::size_t momentTexels = 0;
+  std::vector<glm::vec4> moments;
 };
 
 // Preconditions: views as buildLightViews gave them for scene, layers[i] traced from views[i] and stored as
 // FrameRenderer stores it (ring order for cascades: traceLayers in lighting/renderer.h).
-// raytraced: every light gets a whole visibility ray instead of its shadow maps.
+// raytraced: every light gets a whole visibility ray instead of its shadow maps. The EVSM lights' moments are
+// computed whole (on the CPU).
 ShadeInputs makeShadeInputs(const SceneDesc& scene, std::span<const LightView> views,
                             std::span<const ShadowLayer> layers, bool raytraced);
 

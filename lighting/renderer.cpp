@@ -13,6 +13,7 @@
 #include <tbb/parallel_for.h>
 
 #include "compute/vulkan/vulkan_tracer.h"
+#include "lighting/evsm.h"
 #include "lighting/vulkan_lighting.h"
 #include "voxel/error.h"
 #include "voxel/valid_range.h"
@@ -197,10 +198,26 @@ double lookupReach(const LightDesc& light) {
     case ShadowFilter::Pcf5: reach = 2.5; break;
     case ShadowFilter::Poisson16: reach = double(gpu::VS_POISSON_RADIUS) + 0.5; break;
     case ShadowFilter::Pcss: reach = double(gpu::VS_PCSS_MAX_RADIUS) + 0.5; break;
+    // The bilinear fetch; the blur's spread is in the moment rectangles the marks start from.
+    case ShadowFilter::Evsm: reach = 1.0; break;
   }
   // The depth and slope biases move the receiver along the light, which is along a texel's own ray: they
   // change no view's lateral position.
   return reach + std::abs(double(light.shadow->normalBias)) + 2.0;
+}
+
+// The bands `r` texels wide inside window w's left and right edges (columns) and top and bottom edges (rows),
+// disjoint so that mergeRects keeps them apart (overlapping at the corners it would join them into the window).
+void appendEdgeBands(const TexelRect& w, std::int64_t r, bool columns, bool rows, std::vector<TexelRect>& out) {
+  if (rows) {
+    out.push_back({w.x0, w.y0, w.x1, std::min(w.y0 + r, w.y1)});
+    out.push_back({w.x0, std::max(w.y1 - r, w.y0), w.x1, w.y1});
+  }
+  if (columns) {
+    const std::int64_t y0 = rows ? std::min(w.y0 + r, w.y1) : w.y0, y1 = rows ? std::max(w.y1 - r, y0) : w.y1;
+    out.push_back({w.x0, y0, std::min(w.x0 + r, w.x1), y1});
+    out.push_back({std::max(w.x1 - r, w.x0), y0, w.x1, y1});
+  }
 }
 
 // A view's identity across frames: its light (by id, which survives other lights' removal) and its name.
@@ -225,12 +242,13 @@ void checkRenderOptions(const RenderOptions& options) {
     case DebugView::Cascades:
     case DebugView::Shadow:
     case DebugView::Normals:
-    case DebugView::Layer: break;
+    case DebugView::Layer:
+    case DebugView::Moments: break;
     default:
       throwBadInput("RenderOptions.debug: " + std::to_string(int(options.debug)) +
-                    " is no DebugView (None, Cascades, Shadow, Normals or Layer)");
+                    " is no DebugView (None, Cascades, Shadow, Normals, Layer or Moments)");
   }
-  if (options.debug == DebugView::Layer && options.debugLayer < 0)
+  if ((options.debug == DebugView::Layer || options.debug == DebugView::Moments) && options.debugLayer < 0)
     throwBadInput("RenderOptions.debugLayer: must be 0 or more, not " + std::to_string(options.debugLayer));
 }
 
@@ -273,6 +291,11 @@ struct FrameRenderer::State {
   std::vector<LightView> storeViews;
   std::vector<int> storeOffsets;
   std::vector<float> storeTexels;
+  // EVSM: each stored view's first moment texel (-1: none) and, on the CPU, the moment store (on Vulkan the
+  // lighting pass keeps it on the device).
+  std::vector<int> momentOffsets;
+  std::vector<glm::vec4> storeMoments;
+  std::size_t momentTexels = 0;
   std::vector<std::uint64_t> lightIds; // per light of the kept frame
   std::vector<float> rayLength;        // per light of the kept frame
   std::vector<std::uint32_t> visible;  // per pixel and light: 1 clear (empty: no light needs rays)
@@ -319,6 +342,24 @@ std::vector<ShadowLayer> FrameRenderer::layers() const {
   return out;
 }
 
+std::vector<std::vector<glm::vec4>> FrameRenderer::moments() const {
+  const State& s = *state_;
+  std::vector<glm::vec4> device;
+  if (s.lighting && tracer_.vulkan() && s.momentTexels > 0) {
+    device.resize(s.momentTexels);
+    s.lighting->readMoments(device);
+  }
+  const std::vector<glm::vec4>& store = device.empty() ? s.storeMoments : device;
+  std::vector<std::vector<glm::vec4>> out(s.storeViews.size());
+  for (std::size_t i = 0; i < s.storeViews.size() && i < s.momentOffsets.size(); ++i) {
+    if (s.momentOffsets[i] < 0) continue;
+    const std::size_t n = std::size_t(s.storeViews[i].resolution) * std::size_t(s.storeViews[i].resolution);
+    if (std::size_t(s.momentOffsets[i]) + n > store.size()) throwRuntime("FrameRenderer::moments: no moments are kept");
+    out[i].assign(store.begin() + s.momentOffsets[i], store.begin() + s.momentOffsets[i] + std::ptrdiff_t(n));
+  }
+  return out;
+}
+
 const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptions& options) {
   if (tracerAlive_.expired())
     throwRuntime("FrameRenderer::render: the renderer's tracer was destroyed; make the renderer on a live tracer");
@@ -327,15 +368,25 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
   if (!desc.camera) throwBadInput(desc.file.string() + ": camera: a scene needs a camera to be rendered");
   const CameraFrame camera = cameraFrame(*desc.camera, options.width, options.height);
   const bool raytraced = options.shadows == ShadowSource::Raytraced;
-  const bool needMaps = !raytraced || options.debug == DebugView::Layer;
+  const bool layerView = options.debug == DebugView::Layer || options.debug == DebugView::Moments;
+  const bool needMaps = !raytraced || layerView;
   State& s = *state_;
   VulkanTracer* vulkan = tracer_.vulkan();
 
   // The views first: a bad debug layer is refused before anything changes.
   std::vector<LightView> views = needMaps ? buildLightViews(desc, scene.worldBounds(), &camera) : std::vector<LightView>{};
-  if (options.debug == DebugView::Layer && std::size_t(options.debugLayer) >= views.size())
-    throwBadInput("--debug layer=" + std::to_string(options.debugLayer) + ": the scene has " +
+  const std::string debugName = options.debug == DebugView::Moments ? "moments" : "layer";
+  if (layerView && std::size_t(options.debugLayer) >= views.size())
+    throwBadInput("--debug " + debugName + "=" + std::to_string(options.debugLayer) + ": the scene has " +
                   std::to_string(views.size()) + " shadow layers (0.." + std::to_string(int(views.size()) - 1) + ")");
+  if (options.debug == DebugView::Moments) {
+    const LightDesc& l = desc.lights[std::size_t(views[std::size_t(options.debugLayer)].lightIndex)];
+    if (!l.shadow || l.shadow->filter != ShadowFilter::Evsm || raytraced)
+      throwBadInput("--debug moments=" + std::to_string(options.debugLayer) + ": layer " +
+                    views[std::size_t(options.debugLayer)].name + " has no EVSM moments (its light's filter is " +
+                    (l.shadow ? shadowFilterName(l.shadow->filter) : "none") +
+                    (raytraced ? ", and ray-traced shadows use no maps)" : "; set \"filter\": \"evsm\")"));
+  }
 
   // 1. What changed in the scene since the kept frame, and the tracer's copy brought up to date.
   auto t0 = Clock::now();
@@ -398,7 +449,7 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
   // lighting pass's store in place, and the host's copy is left stale until someone needs it (a layout move,
   // a layer debug view, layers()), which reads it back then.
   const bool deviceStore = vulkan && sameLayout && s.lighting && lightingHeld && s.pendingTexels.empty() &&
-                           options.debug != DebugView::Layer && s.lighting->holdsStore(storeTexels);
+                           !layerView && s.lighting->holdsStore(storeTexels);
   if (s.storeOnDevice && !deviceStore) {
     // A frame without maps keeps the store for the next one that has them (unless a change cleared it).
     const bool storeKept = needMaps ? std::any_of(kept.begin(), kept.end(), [](int k) { return k >= 0; })
@@ -509,6 +560,57 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
     stats.texelsTraced += ls.texels;
     if (ls.texels > 0) ++stats.layersTraced;
   }
+  // EVSM: the moments that this frame's texels change (each traced rectangle grown by the blur radius, and a
+  // scrolled ring's r texels inside each edge that moved, where the blur's clamp to the window moved), or every
+  // EVSM layer's when the moment store does not carry over.
+  std::vector<int> momentOffsets;
+  for (const gpu::ShadeView& sv : inputs.views) momentOffsets.push_back(sv.trace.w);
+  const bool momentsKept = sameLayout && momentOffsets == s.momentOffsets;
+  std::vector<MomentRect> momentRects;
+  // Per view, the window texels whose moments change, in the layer's texel coordinates (for the shading marks).
+  std::vector<std::vector<TexelRect>> momentTouched(views.size());
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    if (!hasMoments(inputs, i)) continue;
+    const LightView& v = views[i];
+    const TexelRect w = windowRect(v);
+    const std::int64_t r = std::int64_t(inputs.lights[std::size_t(v.lightIndex)].evsm.w);
+    std::vector<TexelRect> changed;
+    if (!momentsKept || stats.layers[i].whole) {
+      changed = {w};
+    } else {
+      for (const TexelRect& t : rects[i]) changed.push_back(intersect({t.x0 - r, t.y0 - r, t.x1 + r, t.y1 + r}, w));
+      if (kept[i] >= 0 && isRingView(v) && r > 0) {
+        const TexelRect old = windowRect(s.storeViews[std::size_t(kept[i])]);
+        appendEdgeBands(w, r, old.x0 != w.x0, old.y0 != w.y0, changed);
+      }
+      // A cube face's blur reads its neighbours' texels within r of its edges: texels traced that near an
+      // edge of another face of the light change this face's moments along its edges (all four: the
+      // bands are r texels wide, cheaper than finding which edge meets which).
+      if (r > 0 && inputs.lights[std::size_t(v.lightIndex)].info.x == gpu::VS_LIGHT_POINT) {
+        bool neighbourEdge = false;
+        for (std::size_t j = 0; j < views.size() && !neighbourEdge; ++j) {
+          if (j == i || views[j].lightIndex != v.lightIndex) continue;
+          const TexelRect wj = windowRect(views[j]);
+          for (const TexelRect& t : rects[j])
+            if (!t.empty() && (t.x0 < wj.x0 + r || t.y0 < wj.y0 + r || t.x1 > wj.x1 - r || t.y1 > wj.y1 - r))
+              neighbourEdge = true;
+        }
+        if (neighbourEdge) appendEdgeBands(w, r, true, true, changed);
+      }
+      mergeRects(changed);
+    }
+    for (const TexelRect& t : changed)
+      momentRects.push_back({int(i), int(t.x0 - w.x0), int(t.y0 - w.y0), int(t.x1 - w.x0), int(t.y1 - w.y0)});
+    momentTouched[i] = std::move(changed);
+  }
+  const MomentWork momentJobs = momentWork(views, inputs, momentRects);
+  stats.momentTexels = momentJobs.vertical;
+  auto wholeMoments = [&]() { return momentWork(views, inputs, wholeMomentRects(inputs)); };
+  if (!vulkan) {
+    if (momentsKept) inputs.moments.swap(s.storeMoments);
+    computeMomentsOnCpu(inputs, momentJobs, inputs.moments);
+    if (!momentJobs.empty()) stats.dispatches += 1;
+  }
   if (vulkan && !deviceStore) stats.bytesReadBack += stats.texelsTraced * sizeof(float);
   timings.shadowMs = msSince(t0);
 
@@ -617,7 +719,8 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
       const double reach = lookupReach(desc.lights[l]);
       for (std::size_t i = 0; i < views.size(); ++i) {
         if (std::size_t(views[i].lightIndex) != l) continue;
-        for (const TexelRect& r : rects[i]) {
+        // An EVSM layer's lookups read moments, which change where momentTouched says (the blur included).
+        for (const TexelRect& r : hasMoments(inputs, i) ? momentTouched[i] : rects[i]) {
           const std::int64_t m = std::int64_t(std::ceil(reach));
           touched.push_back({i, {r.x0 - m, r.y0 - m, r.x1 + m, r.y1 + m}});
         }
@@ -647,7 +750,7 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
   std::vector<std::uint32_t> pixels;
   if (!shadeAll) pixels = markedPixels(marks);
   if (vulkan) {
-    if (shadeAll || !pixels.empty()) {
+    if (shadeAll || !pixels.empty() || !momentJobs.empty()) {
       if (!s.lighting) {
         s.context = vulkan->sharedContext();
         s.lighting = std::make_unique<VulkanLighting>(s.context);
@@ -658,11 +761,14 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
       // its marked pixels' inputs, or every pixel's when everything is shaded again (a moved camera, a changed
       // light); it reads back those pixels.
       if (!lightingHeld || !sameLayout) {
-        shaded = s.lighting->shade(inputs, push, frame.gbuffer, visible, &traffic);
+        const MomentWork whole = inputs.momentTexels > 0 ? wholeMoments() : MomentWork{};
+        shaded = s.lighting->shade(inputs, push, frame.gbuffer, visible, &traffic, &whole);
       } else {
         s.pendingTexels.insert(s.pendingTexels.end(), tracedTexels.begin(), tracedTexels.end());
-        s.lighting->shadeChanged(inputs, push, frame.gbuffer, visible,
-                                 {s.pendingTexels, pixels, inputPixels, shadeAll, deviceStore}, shaded, &traffic);
+        ShadeChanges changes{s.pendingTexels, pixels, inputPixels, shadeAll, deviceStore};
+        changes.moments = &momentJobs;
+        changes.wholeMoments = wholeMoments;
+        s.lighting->shadeChanged(inputs, push, frame.gbuffer, visible, changes, shaded, &traffic);
       }
       s.pendingTexels.clear();
       s.lightingHeld = true;
@@ -707,6 +813,34 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
       }
   }
 
+  if (options.debug == DebugView::Moments) {
+    // The first moment of each texel, in window order, as the warped depth it is the mean of, from near
+    // (dark) to far (white).
+    const std::size_t li = std::size_t(options.debugLayer);
+    const LightView& v = views[li];
+    const std::size_t n = std::size_t(v.resolution) * std::size_t(v.resolution);
+    std::vector<glm::vec4> stored(n);
+    if (vulkan) {
+      std::vector<glm::vec4> all(inputs.momentTexels);
+      LightingTraffic traffic;
+      s.lighting->readMoments(all, &traffic);
+      stats.bytesReadBack += traffic.readBack;
+      std::copy_n(all.begin() + inputs.views[li].trace.w, n, stored.begin());
+    } else {
+      std::copy_n(inputs.moments.begin() + inputs.views[li].trace.w, n, stored.begin());
+    }
+    const std::vector<glm::vec4> m = windowMoments(v, stored);
+    const float c = inputs.lights[std::size_t(v.lightIndex)].evsm.x;
+    for (int y = 0; y < camera.height; ++y)
+      for (int x = 0; x < camera.width; ++x) {
+        const int lx = std::min(v.resolution - 1, x * v.resolution / camera.width);
+        const int ly = std::min(v.resolution - 1, y * v.resolution / camera.height);
+        const float first = m[std::size_t(ly) * std::size_t(v.resolution) + std::size_t(lx)].x;
+        const float grey = std::clamp((std::log(std::max(first, 1e-30f)) / c + 1.0f) * 0.5f, 0.0f, 1.0f);
+        frame.color[std::size_t(y) * std::size_t(camera.width) + std::size_t(x)] = glm::vec4(glm::vec3(grey), 1.0f);
+      }
+  }
+
   stats.bytesUploaded += tracer_.bytesUploaded() - uploadedBefore;
   frame.width = camera.width;
   frame.height = camera.height;
@@ -724,6 +858,9 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
     s.storeOffsets.clear();
     for (const gpu::ShadeView& v : inputs.views) s.storeOffsets.push_back(v.info.x);
     s.storeTexels.swap(inputs.shadowTexels);
+    s.momentOffsets = std::move(momentOffsets);
+    s.momentTexels = inputs.momentTexels;
+    s.storeMoments.swap(inputs.moments);
   }
   s.lightIds = std::move(lightIds);
   s.rayLength = inputs.rayLength;

@@ -20,18 +20,19 @@
 namespace vs {
 
 enum class ShadowSource { Maps, Raytraced };
-enum class DebugView { None, Cascades, Shadow, Normals, Layer };
+enum class DebugView { None, Cascades, Shadow, Normals, Layer, Moments };
 
 struct RenderOptions {
   int width = 0, height = 0;  // 0: the scene camera's; else 1..limits::kMaxImageSide
   ShadowSource shadows = ShadowSource::Maps;
   DebugView debug = DebugView::None;
-  int debugLayer = 0;  // DebugView::Layer: which shadow layer (light view order)
+  int debugLayer = 0;  // DebugView::Layer, Moments: which shadow layer (light view order)
 };
 
 // Refuses (vs::Error(BadInput), "RenderOptions.<field>: <problem>") what render() cannot draw: a width or
 // height below 0 or above limits::kMaxImageSide, a ShadowSource or DebugView that names no enumerator (a cast
-// from an unchecked integer), and, for DebugView::Layer, a negative debugLayer. render() calls it first.
+// from an unchecked integer), and, for DebugView::Layer and Moments, a negative debugLayer. render() calls it
+// first.
 void checkRenderOptions(const RenderOptions& options);
 
 struct RenderTimings {
@@ -57,6 +58,7 @@ struct FrameStats {
   int layersTraced = 0;           // layers with any texel traced
   std::uint64_t texelsTraced = 0; // shadow rays: the sum over layers
   std::uint64_t layerTexels = 0;  // every texel of the frame's layers
+  std::uint64_t momentTexels = 0; // EVSM moments computed again (each traced rectangle grown by the blur)
   std::uint64_t primaryRays = 0;  // G-buffer rays
   std::uint64_t visibilityRays = 0;  // ray-traced and contact shadow rays
   std::uint64_t pixelsShaded = 0; // pixels the lighting pass computed
@@ -100,12 +102,17 @@ class FrameRenderer {
   // scene, or the reference form of Tracer::setScene) makes the frame redo everything; renderers of one scene
   // may share a tracer. The frame stays owned by the renderer, valid until the next render() call.
   // Preconditions: the scene has a camera (else vs::Error(BadInput)); options pass checkRenderOptions;
-  // options.debugLayer names an existing layer for DebugView::Layer (else vs::Error(BadInput)).
+  // options.debugLayer names an existing layer for DebugView::Layer, and one of an EVSM light for
+  // DebugView::Moments (else vs::Error(BadInput)).
   const RenderedFrame& render(const Scene& scene, const RenderOptions& options);
 
   // The shadow layers of the last frame that had shadow maps (its views' order), as stored: a cascade's
   // layer is a ring over its grid (windowTexels in lighting/light_views.h gives window order).
   std::vector<ShadowLayer> layers() const;
+  // The EVSM moment layers of that frame (lighting/shared/evsm.h), one per view in the same order and storage
+  // order, each (p, p^2, n, n^2) per texel; empty for views whose light does not use EVSM. On Vulkan they are
+  // read back from the device now.
+  std::vector<std::vector<glm::vec4>> moments() const;
   // Makes the next frame redo everything (a benchmark's forced full frame).
   void invalidateLayers() { forceFull_ = true; }
 

@@ -355,7 +355,9 @@ LightDesc checkedLight(const SceneDesc& scene, const LightDesc& light, const std
     Json sj = {{"resolution", s.resolution}, {"lambda", s.lambda}, {"max_distance", s.maxDistance},
                {"filter", shadowFilterName(s.filter)}, {"depth_bias", s.depthBias}, {"normal_bias", s.normalBias},
                {"slope_bias", s.slopeBias}, {"light_size", s.lightSize}, {"contact_shadow", s.contactShadow},
-               {"depth_point", s.depthPoint == gpu::VS_DEPTH_POINT_VOXEL_CENTER ? "voxel_center" : "entry"}};
+               {"depth_point", s.depthPoint == gpu::VS_DEPTH_POINT_VOXEL_CENTER ? "voxel_center" : "entry"},
+               {"evsm_exponent", {s.evsmPositiveExponent, s.evsmNegativeExponent}}, {"evsm_blur", s.evsmBlur},
+               {"light_bleed_reduction", s.lightBleedReduction}};
     if (light.type == LightType::Directional) {
       sj["cascades"] = s.cascades;
       sj["cascade_blend"] = s.cascadeBlend;

@@ -38,6 +38,7 @@ const char* shadowFilterName(ShadowFilter filter) {
     case ShadowFilter::Pcf5: return "pcf5";
     case ShadowFilter::Poisson16: return "poisson16";
     case ShadowFilter::Pcss: return "pcss";
+    case ShadowFilter::Evsm: return "evsm";
   }
   return "?";
 }
@@ -561,7 +562,8 @@ class Parser {
   ShadowDesc parseShadow(const Json& sj, const std::string& path, LightType type, float defaultMaxDistance) const {
     requireObject(sj, path);
     checkKeys(sj, path, {"resolution", "cascades", "lambda", "max_distance", "filter", "depth_bias", "normal_bias",
-                         "slope_bias", "light_size", "contact_shadow", "cascade_blend", "depth_point"});
+                         "slope_bias", "light_size", "contact_shadow", "cascade_blend", "depth_point", "evsm_exponent",
+                         "evsm_blur", "light_bleed_reduction"});
     ShadowDesc s;
     s.maxDistance = defaultMaxDistance;
     if (auto it = sj.find("resolution"); it != sj.end()) {
@@ -588,13 +590,13 @@ class Parser {
       std::string f = string(*it, key(path, "filter"));
       bool found = false;
       for (ShadowFilter cand : {ShadowFilter::Hard, ShadowFilter::Pcf3, ShadowFilter::Pcf5, ShadowFilter::Poisson16,
-                                ShadowFilter::Pcss}) {
+                                ShadowFilter::Pcss, ShadowFilter::Evsm}) {
         if (f == shadowFilterName(cand)) {
           s.filter = cand;
           found = true;
         }
       }
-      if (!found) fail(key(path, "filter"), "unknown filter \"" + f + "\" (expected hard, pcf3, pcf5, poisson16 or pcss)");
+      if (!found) fail(key(path, "filter"), "unknown filter \"" + f + "\" (expected hard, pcf3, pcf5, poisson16, pcss or evsm)");
     }
     s.depthBias = number(sj, path, "depth_bias", s.depthBias);
     if (std::abs(s.depthBias) > limits::kMaxDepthBias)
@@ -608,6 +610,29 @@ class Parser {
       if (type != LightType::Directional)
         fail(bp, std::string("only directional lights have cascades, this is a ") + lightTypeName(type) + " light");
       s.cascadeBlend = float(inRange(number(*it, bp), bp, 0.0, 0.5, "the blend band"));
+    }
+    if (auto it = sj.find("evsm_exponent"); it != sj.end()) {
+      // One number for both warps, or [positive, negative].
+      const std::string ep = key(path, "evsm_exponent");
+      const char* what = "an EVSM exponent";
+      if (it->is_array()) {
+        if (it->size() != 2) fail(ep, "must be a number or an array of 2 numbers [positive, negative]");
+        s.evsmPositiveExponent = float(inRange(number((*it)[0], index(ep, 0)), index(ep, 0), 1.0, kMaxEvsmExponent, what));
+        s.evsmNegativeExponent = float(inRange(number((*it)[1], index(ep, 1)), index(ep, 1), 1.0, kMaxEvsmExponent, what));
+      } else {
+        s.evsmPositiveExponent = s.evsmNegativeExponent = float(inRange(number(*it, ep), ep, 1.0, kMaxEvsmExponent, what));
+      }
+    }
+    if (auto it = sj.find("evsm_blur"); it != sj.end()) {
+      const std::string bp = key(path, "evsm_blur");
+      s.evsmBlur = integer(*it, bp);
+      if (s.evsmBlur < 0 || s.evsmBlur > kMaxEvsmBlur)
+        fail(bp, "the blur radius (texels) must be between 0 and " + std::to_string(kMaxEvsmBlur) + ", not " +
+                     std::to_string(s.evsmBlur));
+    }
+    if (auto it = sj.find("light_bleed_reduction"); it != sj.end()) {
+      const std::string lp = key(path, "light_bleed_reduction");
+      s.lightBleedReduction = float(inRange(number(*it, lp), lp, 0.0, 0.99, "the light-bleeding reduction"));
     }
     if (auto it = sj.find("depth_point"); it != sj.end()) {
       std::string d = string(*it, key(path, "depth_point"));

@@ -48,10 +48,16 @@ struct AmbientDesc {
 };
 
 enum class LightType { Directional, Spot, Point };
-enum class ShadowFilter { Hard, Pcf3, Pcf5, Poisson16, Pcss };
+enum class ShadowFilter { Hard, Pcf3, Pcf5, Poisson16, Pcss, Evsm };
 
 const char* lightTypeName(LightType type);
 const char* shadowFilterName(ShadowFilter filter);
+
+// The largest EVSM warp exponent: a moment reaches e^(2c) and a blur sums 2 * kMaxEvsmBlur + 1 of them before it
+// scales, so 33 * e^84 (about 1.0e38) stays below FLT_MAX (3.4e38); on the small side e^(-84) (3.3e-37) stays a
+// normal float, which a GPU that flushes denormals keeps as the CPU does.
+inline constexpr float kMaxEvsmExponent = 42.0f;
+inline constexpr int kMaxEvsmBlur = 16;
 
 struct ShadowDesc {
   int resolution = 1024;    // power of two, 16..16384
@@ -76,6 +82,13 @@ struct ShadowDesc {
   // Cascades: the far share of each cascade's depth range over which it blends into the next (the last one
   // fades to lit), 0..0.5.
   float cascadeBlend = 0.1f;
+  // evsm (lighting/shared/evsm.h): the exponents of the positive and negative warps of the depth (mapped to
+  // [-1, 1] over the layer's depth range), each 1..kMaxEvsmExponent; the box blur's radius in texels
+  // (0..kMaxEvsmBlur); and the light-bleeding reduction, the share of the Chebyshev bound cut away (0..1).
+  float evsmPositiveExponent = 40.0f;
+  float evsmNegativeExponent = 8.0f;
+  int evsmBlur = 1;
+  float lightBleedReduction = 0.2f;
   int depthPoint = 0;       // VS_DEPTH_POINT_ENTRY or VS_DEPTH_POINT_VOXEL_CENTER (compute/shared/trace_view.h)
 };
 

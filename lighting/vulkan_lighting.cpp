@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "deferred_lighting.spv.h"
+#include "evsm_moments.spv.h"
 #include "lighting/shared/lighting_interface.h"
 #include "voxel/error.h"
 
@@ -16,6 +17,11 @@ struct VulkanLighting::Impl {
   VulkanContext& context;
   vk::ComputePipeline pipeline;
   vk::UniqueShaderModule module;
+  // The moment pass: the same descriptor set, its own push block; made with the first EVSM work (a compile
+  // that frames without EVSM do not pay for).
+  vk::UniquePipelineLayout momentLayout;
+  vk::UniquePipeline momentPipeline;
+  vk::UniqueShaderModule momentModule;
   vk::UniqueDescriptorPool descriptorPool;
   VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
   // Host-visible buffers in binding order; each grows to the largest frame so far.
@@ -105,15 +111,19 @@ struct VulkanLighting::Impl {
   }
 
   bool holdsStore(std::size_t texels) const {
-    return heldSizes.size() == 5 && heldSizes[3] == texels && buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].buffer;
+    return heldSizes.size() == 6 && heldSizes[3] == texels && buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].buffer;
   }
+  bool holdsMoments(std::size_t texels) const { return heldSizes.size() == 6 && heldSizes[5] == texels; }
+
+  // The moment pass's work of the current call, recorded before the lighting dispatch (null: none).
+  const MomentWork* momentWork = nullptr;
 
   // Pixels shaded and dispatches recorded by the current call.
   std::size_t shadedPixels = 0;
   int dispatches = 0;
 
   // The sizes the buffers' contents were last written for (pixels, lights, views, texels, visibility answers);
-  // empty when they hold no whole frame (none yet, replaced, or a pass that failed half-way).
+  // moment texels); empty when they hold no whole frame (none yet, replaced, or a pass that failed half-way).
   std::vector<std::size_t> heldSizes;
 
   // Every buffer sized for the frame; true when every one was kept (so their contents are the last frame's).
@@ -130,12 +140,66 @@ struct VulkanLighting::Impl {
     sized(gpu::VS_LIGHTING_BINDING_SHADOW_TERMS, pixels * lights * sizeof(float));
     sized(gpu::VS_LIGHTING_BINDING_COLOR, pixels * sizeof(glm::vec4));
     sized(gpu::VS_LIGHTING_BINDING_PIXELS, pixels * sizeof(std::uint32_t));
+    sized(gpu::VS_LIGHTING_BINDING_MOMENTS, inputs.momentTexels * sizeof(glm::vec2));
+    sized(gpu::VS_LIGHTING_BINDING_MOMENTS_NEGATIVE, inputs.momentTexels * sizeof(glm::vec2));
+    // The moment pass's inputs: sized for each call's work (reserveMomentWork); bound from the start.
+    sized(gpu::VS_LIGHTING_BINDING_EVSM_VIEWS, 0);
+    sized(gpu::VS_LIGHTING_BINDING_EVSM_JOBS, 0);
+    sized(gpu::VS_LIGHTING_BINDING_EVSM_BORDER, 0);
+    sized(gpu::VS_LIGHTING_BINDING_EVSM_SCRATCH, 0);
+    sized(gpu::VS_LIGHTING_BINDING_EVSM_SCRATCH_NEGATIVE, 0);
     if (replaced) writeDescriptors();
     return !replaced;
   }
 
   static std::vector<std::size_t> sizesOf(const ShadeInputs& inputs, std::size_t pixels, std::size_t visibility) {
-    return {pixels, inputs.lights.size(), inputs.views.size(), inputs.shadowTexels.size(), visibility};
+    return {pixels, inputs.lights.size(), inputs.views.size(), inputs.shadowTexels.size(), visibility,
+            inputs.momentTexels};
+  }
+
+  void makeMomentPipeline() {
+    if (momentPipeline) return;
+    VkDevice dev = context.device();
+    VkDescriptorSetLayout setLayout = pipeline.setLayout.get();
+    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::EvsmPush)};
+    auto pl = vk::make<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
+    pl.setLayoutCount = 1;
+    pl.pSetLayouts = &setLayout;
+    pl.pushConstantRangeCount = 1;
+    pl.pPushConstantRanges = &range;
+    VkPipelineLayout layout = VK_NULL_HANDLE;
+    vk::check(vkCreatePipelineLayout(dev, &pl, nullptr, &layout), "vkCreatePipelineLayout");
+    momentLayout = vk::UniquePipelineLayout(dev, layout);
+    momentModule = context.createShaderModule(evsm_moments, sizeof evsm_moments);
+    auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
+    ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
+    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    ci.stage.module = momentModule.get();
+    ci.stage.pName = "main";
+    ci.layout = layout;
+    VkPipeline p = VK_NULL_HANDLE;
+    vk::check(vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &ci, nullptr, &p), "vkCreateComputePipelines");
+    momentPipeline = vk::UniquePipeline(dev, p);
+  }
+
+  // Writes the moment pass's records (the store's buffers were sized by sizeFor); the pass itself is recorded
+  // with the next dispatch.
+  void writeMomentWork(const MomentWork* work, LightingTraffic& traffic) {
+    momentWork = work && !work->empty() ? work : nullptr;
+    if (!momentWork) return;
+    makeMomentPipeline();
+    bool replaced = false;
+    auto put = [&](std::uint32_t b, const void* data, std::size_t bytes) {
+      replaced = reserve(b, bytes) || replaced;
+      if (bytes) std::memcpy(buffers[b].mapped, data, bytes);
+      traffic.uploaded += bytes;
+    };
+    put(gpu::VS_LIGHTING_BINDING_EVSM_VIEWS, work->views.data(), work->views.size() * sizeof(gpu::EvsmView));
+    put(gpu::VS_LIGHTING_BINDING_EVSM_JOBS, work->jobs.data(), work->jobs.size() * sizeof(gpu::EvsmJob));
+    put(gpu::VS_LIGHTING_BINDING_EVSM_BORDER, work->border.data(), work->border.size() * sizeof(std::int32_t));
+    replaced = reserve(gpu::VS_LIGHTING_BINDING_EVSM_SCRATCH, work->scratchTexels * sizeof(glm::vec2)) || replaced;
+    replaced = reserve(gpu::VS_LIGHTING_BINDING_EVSM_SCRATCH_NEGATIVE, work->scratchTexels * sizeof(glm::vec2)) || replaced;
+    if (replaced) writeDescriptors();
   }
 
   void writeRecords(const ShadeInputs& inputs, LightingTraffic& traffic) {
@@ -145,7 +209,8 @@ struct VulkanLighting::Impl {
   }
 
   ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
-                    std::span<const std::uint32_t> rayVisibility, LightingTraffic& traffic, bool storeInPlace = false) {
+                    std::span<const std::uint32_t> rayVisibility, LightingTraffic& traffic, bool storeInPlace,
+                    const MomentWork* moments) {
     std::vector<std::uint32_t> clear;
     rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
     const std::size_t pixels = gbuffer.texels.size();
@@ -164,6 +229,9 @@ struct VulkanLighting::Impl {
     }
     fill(gpu::VS_LIGHTING_BINDING_VISIBILITY, rayVisibility.data(), rayVisibility.size() * sizeof(std::uint32_t));
     traffic.uploaded += pixels * sizeof(gpu::GBufferTexel) + rayVisibility.size() * sizeof(std::uint32_t);
+    if (inputs.momentTexels > 0 && (!moments || moments->vertical != inputs.momentTexels))
+      throwBadInput("lighting: a frame with EVSM layers needs the work of its whole moment store");
+    writeMomentWork(moments, traffic);
     dispatch(push);
     ShadeOutput out;
     out.color.resize(pixels);
@@ -189,7 +257,12 @@ struct VulkanLighting::Impl {
     if (changes.storeInPlace && !changes.texelRanges.empty())
       throwBadInput("lighting: texel ranges given for a store read in place");
     if (sizes != heldSizes || out.color.size() != pixels || out.shadowTerms.size() != pixels * lights) {
-      out = shade(inputs, push, gbuffer, rayVisibility, traffic, changes.storeInPlace);
+      MomentWork whole;
+      if (inputs.momentTexels > 0) {
+        if (!changes.wholeMoments) throwBadInput("lighting: a frame with EVSM layers needs its whole moment work");
+        whole = changes.wholeMoments();
+      }
+      out = shade(inputs, push, gbuffer, rayVisibility, traffic, changes.storeInPlace, &whole);
       return;
     }
     for (const auto& [first, count] : changes.texelRanges)
@@ -206,6 +279,7 @@ struct VulkanLighting::Impl {
     // From here the buffers are written: a failure leaves them holding no whole frame.
     heldSizes.clear();
     writeRecords(inputs, traffic);
+    writeMomentWork(changes.moments, traffic);
     auto* texels = static_cast<float*>(buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].mapped);
     for (const auto& [first, count] : changes.texelRanges) {
       std::memcpy(texels + first, inputs.shadowTexels.data() + first, count * sizeof(float));
@@ -238,7 +312,8 @@ struct VulkanLighting::Impl {
     const std::size_t groupSize = std::size_t(gpu::VS_LIGHTING_GROUP_WIDTH) * gpu::VS_LIGHTING_GROUP_HEIGHT;
     const std::size_t listGroups = (changes.pixels.size() + groupSize - 1) / groupSize;
     if (changes.pixels.empty()) {
-      // Nothing to shade: the kept colours stand.
+      // Nothing to shade: the kept colours stand; the moments of changed texels are still brought up to date.
+      if (momentWork) dispatch(push, false);
     } else if (2 * changes.pixels.size() <= pixels && listGroups <= context.info().maxWorkGroupCount[0]) {
       std::memcpy(buffers[gpu::VS_LIGHTING_BINDING_PIXELS].mapped, changes.pixels.data(),
                   changes.pixels.size() * sizeof(std::uint32_t));
@@ -259,7 +334,9 @@ struct VulkanLighting::Impl {
     heldSizes = sizes;
   }
 
-  void dispatch(const gpu::ShadePush& push) {
+  // Records the moment pass (when the call has work) and, unless `shade` is false, the lighting pass over the
+  // push block's pixels, in one submission.
+  void dispatch(const gpu::ShadePush& push, bool shade = true) {
     const std::uint32_t groupSize = gpu::VS_LIGHTING_GROUP_WIDTH * gpu::VS_LIGHTING_GROUP_HEIGHT;
     std::uint32_t groupsX = (std::uint32_t(push.size.x) + gpu::VS_LIGHTING_GROUP_WIDTH - 1) / gpu::VS_LIGHTING_GROUP_WIDTH;
     std::uint32_t groupsY = (std::uint32_t(push.size.y) + gpu::VS_LIGHTING_GROUP_HEIGHT - 1) / gpu::VS_LIGHTING_GROUP_HEIGHT;
@@ -267,25 +344,56 @@ struct VulkanLighting::Impl {
       groupsX = (std::uint32_t(push.flags.y) + groupSize - 1) / groupSize;
       groupsY = 1;
     }
-    shadedPixels += push.flags.y > 0 ? std::size_t(push.flags.y) : std::size_t(push.size.x) * std::size_t(push.size.y);
-    ++dispatches;
+    if (shade) {
+      shadedPixels += push.flags.y > 0 ? std::size_t(push.flags.y) : std::size_t(push.size.x) * std::size_t(push.size.y);
+      ++dispatches;
+    }
+    const MomentWork* moments = momentWork;
+    momentWork = nullptr;
+    if (moments) dispatches += 2;
     context.submitAndWait([&](VkCommandBuffer cmd) {
-      // The host's writes above, before the shader reads them.
+      // The host's writes above (and the trace's, into the store), before the shaders read them.
       auto toShader = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
       toShader.srcAccessMask = VK_ACCESS_HOST_WRITE_BIT;
       toShader.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
       vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_HOST_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &toShader, 0,
                            nullptr, 0, nullptr);
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline.get());
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet, 0, nullptr);
-      vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::ShadePush), &push);
-      vkCmdDispatch(cmd, groupsX, groupsY, 1);
+      if (moments) recordMoments(cmd, *moments);
+      if (shade) {
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline.get());
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet, 0, nullptr);
+        vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::ShadePush), &push);
+        vkCmdDispatch(cmd, groupsX, groupsY, 1);
+      }
       auto toHost = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
       toHost.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
       toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
       vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
                            nullptr, 0, nullptr);
     });
+  }
+
+  // The moment pass: horizontal sums into the scratch, then vertical sums into the moment store, each pass one
+  // dispatch over a flat index of its jobs' texels (rows of maxWorkGroupCount[0] groups).
+  void recordMoments(VkCommandBuffer cmd, const MomentWork& work) {
+    auto between = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+    between.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    between.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentPipeline.get());
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentLayout.get(), 0, 1, &descriptorSet, 0, nullptr);
+    const std::uint32_t maxGroups = std::min<std::uint32_t>(context.info().maxWorkGroupCount[0], 65535u);
+    for (int pass = 0; pass < 2; ++pass) {
+      const std::size_t invocations = pass == 0 ? work.horizontal : work.vertical;
+      const std::size_t groups = (invocations + gpu::VS_EVSM_GROUP_SIZE - 1) / gpu::VS_EVSM_GROUP_SIZE;
+      const std::uint32_t groupsX = std::uint32_t(std::min<std::size_t>(groups, maxGroups));
+      const std::uint32_t groupsY = std::uint32_t((groups + groupsX - 1) / groupsX);
+      gpu::EvsmPush push{};
+      push.pass = glm::ivec4(pass, int(work.jobs.size()), int(invocations), int(groupsX * gpu::VS_EVSM_GROUP_SIZE));
+      vkCmdPushConstants(cmd, momentLayout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+      vkCmdDispatch(cmd, groupsX, groupsY, 1);
+      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1,
+                           &between, 0, nullptr, 0, nullptr);
+    }
   }
 };
 
@@ -295,6 +403,15 @@ VkBuffer VulkanLighting::storeTarget(std::size_t texels) const {
   if (!impl_->holdsStore(texels))
     throwRuntime("lighting: no layer store of " + std::to_string(texels) + " texels is held to trace into");
   return impl_->buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].get();
+}
+
+void VulkanLighting::readMoments(std::span<glm::vec4> out, LightingTraffic* traffic) const {
+  if (!impl_->holdsMoments(out.size()))
+    throwBadInput("lighting: the pass holds no moment store of " + std::to_string(out.size()) + " texels to read");
+  const auto* positive = static_cast<const glm::vec2*>(impl_->buffers[gpu::VS_LIGHTING_BINDING_MOMENTS].mapped);
+  const auto* negative = static_cast<const glm::vec2*>(impl_->buffers[gpu::VS_LIGHTING_BINDING_MOMENTS_NEGATIVE].mapped);
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = glm::vec4(positive[i], negative[i]);
+  if (traffic) traffic->readBack += out.size() * sizeof(glm::vec4);
 }
 
 void VulkanLighting::readStore(std::span<float> out, LightingTraffic* traffic) const {
@@ -308,11 +425,12 @@ void VulkanLighting::readStore(std::span<float> out, LightingTraffic* traffic) c
 VulkanLighting::VulkanLighting(std::shared_ptr<VulkanContext> context) : impl_(std::make_unique<Impl>(std::move(context))) {}
 VulkanLighting::~VulkanLighting() = default;
 ShadeOutput VulkanLighting::shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
-                                  std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic) {
+                                  std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic,
+                                  const MomentWork* moments) {
   LightingTraffic t;
   impl_->shadedPixels = 0;
   impl_->dispatches = 0;
-  ShadeOutput out = impl_->shade(inputs, push, gbuffer, rayVisibility, t);
+  ShadeOutput out = impl_->shade(inputs, push, gbuffer, rayVisibility, t, false, moments);
   t.pixelsShaded = impl_->shadedPixels;
   t.dispatches = impl_->dispatches;
   if (traffic) *traffic = t;

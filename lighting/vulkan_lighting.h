@@ -3,12 +3,14 @@
 #ifndef VOXSHADOW_VULKAN_LIGHTING_H
 #define VOXSHADOW_VULKAN_LIGHTING_H
 
+#include <functional>
 #include <memory>
 #include <span>
 #include <utility>
 
 #include "compute/vulkan/vulkan_context.h"
 #include "lighting/deferred.h"
+#include "lighting/evsm.h"
 
 namespace vs {
 
@@ -38,6 +40,11 @@ struct ShadeChanges {
   // nothing of ShadeInputs::shadowTexels is written, which may then be stale. Precondition: holdsStore() of
   // the frame's store size; texelRanges empty.
   bool storeInPlace = false;
+  // EVSM: the moment rectangles the changed texels touch (null: none), computed from the pass's store before it
+  // shades; and the whole store's work, for a pass that holds no moments of this frame's size (its first, or
+  // after another size): called only then.
+  const MomentWork* moments = nullptr;
+  std::function<MomentWork()> wholeMoments;
 };
 
 class VulkanLighting {
@@ -47,9 +54,12 @@ class VulkanLighting {
   ~VulkanLighting();
 
   // The pass over one frame: the same inputs and results as shadeOnCpu. Buffers grow as frames need and are
-  // kept for the next frame. Throws vs::Error(BadInput) as shadeOnCpu does, vs::Error(Runtime) on device errors.
+  // kept for the next frame. `moments`: the whole moment store's work (momentWork over wholeMomentRects), run
+  // on the device before the frame is shaded; required when inputs.momentTexels > 0 (inputs.moments is not
+  // read). Throws vs::Error(BadInput) as shadeOnCpu does, vs::Error(Runtime) on device errors.
   ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
-                    std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic = nullptr);
+                    std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic = nullptr,
+                    const MomentWork* moments = nullptr);
 
   // The pass over a frame whose inputs differ from the last shade()'s or shadeChanged()'s only where `changes`
   // says: the buffers keep the last frame's inputs, so only the changed texel ranges and pixels (their G-buffer
@@ -75,6 +85,9 @@ class VulkanLighting {
   // Copies the store's texels to `out` (as long as the held store, else vs::Error(BadInput)): a host copy,
   // asked for by a caller, of layers that stayed on the device. Adds the bytes to traffic->readBack.
   void readStore(std::span<float> out, LightingTraffic* traffic = nullptr) const;
+  // Copies the moment store (ShadeInputs::moments' layout) to `out`, as long as the held one (else
+  // vs::Error(BadInput)).
+  void readMoments(std::span<glm::vec4> out, LightingTraffic* traffic = nullptr) const;
 
  private:
   struct Impl;

@@ -37,6 +37,9 @@ void validateBakedViews(std::span<const BakedView> views) {
     if (v.texels.size() != std::size_t(v.width) * std::size_t(v.height))
       throwBadInput(where + ": " + std::to_string(v.texels.size()) + " texels for " + std::to_string(v.width) +
                     "x" + std::to_string(v.height));
+    if (!v.moments.empty() && v.moments.size() != v.texels.size())
+      throwBadInput(where + ": " + std::to_string(v.moments.size()) + " moment texels for " + std::to_string(v.texels.size()) +
+                    " texels");
   }
 }
 
@@ -64,6 +67,11 @@ nlohmann::json sidecarJson(std::span<const BakedView> views) {
                         {"width", v.width},
                         {"height", v.height}};
     if (v.position) j["position"] = {v.position->x, v.position->y, v.position->z};
+    if (!v.moments.empty())
+      j["evsm"] = {{"exponents", {v.evsmExponents.x, v.evsmExponents.y}},
+                   {"blur", v.evsmBlur},
+                   {"lightBleedReduction", v.lightBleedReduction},
+                   {"channels", {"evsm.p", "evsm.p2", "evsm.n", "evsm.n2"}}};
     list.push_back(std::move(j));
   }
   return {{"version", 1}, {"views", std::move(list)}};
@@ -75,11 +83,20 @@ namespace {
 // resolutions all get the smallest window holding each of them; each layer's data window starts at (0, 0)
 // and is exactly its own size, and equals the display window when all layers have the same size.
 OIIO::ImageSpec exrSpec(const BakedView& v, int displayWidth, int displayHeight) {
-  OIIO::ImageSpec spec(v.width, v.height, 1, OIIO::TypeDesc::FLOAT);
+  const bool moments = !v.moments.empty();
+  OIIO::ImageSpec spec(v.width, v.height, moments ? 5 : 1, OIIO::TypeDesc::FLOAT);
   spec.full_x = spec.full_y = 0;
   spec.full_width = displayWidth;
   spec.full_height = displayHeight;
   spec.channelnames = {"Z"};
+  if (moments) {
+    // The moments of the EVSM warps (lighting/shared/evsm.h): layer "evsm", in the order the shader reads them.
+    spec.channelnames = {"Z", "evsm.p", "evsm.p2", "evsm.n", "evsm.n2"};
+    spec.attribute("voxshadow:evsmExponents", OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, OIIO::TypeDesc::VEC2),
+                   glm::value_ptr(v.evsmExponents));
+    spec.attribute("voxshadow:evsmBlur", v.evsmBlur);
+    spec.attribute("voxshadow:lightBleedReduction", v.lightBleedReduction);
+  }
   spec.attribute("compression", "zip");
   // No capture date: OpenImageIO stamps the writing time otherwise, and a bake's files must depend on its
   // inputs alone, so that a merge of shards baked elsewhere is the very file one machine would write.
@@ -119,8 +136,20 @@ void writeExrFile(const fs::path& finalPath, const fs::path& tmp, std::span<cons
   for (std::size_t i = 0; i < views.size(); ++i) {
     if (i > 0 && !out->open(tmp.string(), specs[i], OIIO::ImageOutput::AppendSubimage))
       fail("cannot start subimage '" + views[i].name + "': " + out->geterror());
-    if (!out->write_image(OIIO::TypeDesc::FLOAT, views[i].texels.data()))
-      fail("cannot write subimage '" + views[i].name + "': " + out->geterror());
+    const BakedView& v = views[i];
+    bool written = false;
+    if (v.moments.empty()) {
+      written = out->write_image(OIIO::TypeDesc::FLOAT, v.texels.data());
+    } else {
+      // Depth and moments interleaved per texel, as the spec lists the channels.
+      std::vector<float> pixels(v.texels.size() * 5);
+      for (std::size_t k = 0; k < v.texels.size(); ++k) {
+        pixels[k * 5] = v.texels[k];
+        for (int c = 0; c < 4; ++c) pixels[k * 5 + 1 + std::size_t(c)] = v.moments[k][c];
+      }
+      written = out->write_image(OIIO::TypeDesc::FLOAT, pixels.data());
+    }
+    if (!written) fail("cannot write subimage '" + v.name + "': " + out->geterror());
   }
   if (!out->close()) fail("cannot finish the file: " + out->geterror());
 }

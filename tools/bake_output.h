@@ -31,11 +31,17 @@ struct BakedView {
   int width = 0;
   int height = 0;
   std::vector<float> texels;  // width * height, row 0 first
+  // EVSM (bake --evsm-moments, a light with "filter": "evsm"): the layer's blurred moments (p, p^2, n, n^2) per
+  // texel, width * height, row 0 first, and the settings they were made with; empty for other views.
+  std::vector<glm::vec4> moments;
+  glm::vec2 evsmExponents{0.0f};
+  int evsmBlur = 0;
+  float lightBleedReduction = 0.0f;
 };
 
 // Throws vs::Error(BadInput) describing the first view that breaks the preconditions of the writers below:
 // at least one view; names non-empty and unique; encoding and depthPoint one of the values above;
-// width, height > 0; texels.size() == width * height.
+// width, height > 0; texels.size() == width * height; moments empty or width * height.
 void validateBakedViews(std::span<const BakedView> views);
 
 // The sidecar path of an EXR: its name with ".json" appended ("out.exr" -> "out.exr.json"), so that it can
@@ -44,11 +50,13 @@ std::filesystem::path sidecarPath(const std::filesystem::path& exr);
 
 // The sidecar's content: {"version": 1, "views": [{name, light, encoding, depthPoint, range, position?,
 // worldToClip (16 floats, GLM column-major order), eye (3 doubles), eyeToClip (16 doubles, column-major), width,
-// height, subimage}]}.
+// height, subimage, and for views with moments evsm {exponents [positive, negative], blur, lightBleedReduction,
+// channels}}]}.
 nlohmann::json sidecarJson(std::span<const BakedView> views);
 
 // Writes `out` (one EXR subimage per view, channel "Z" as 32-bit float, the voxshadow:* attributes of
-// DESIGN.md §9) and its JSON sidecar. Each data window starts at (0, 0) with the view's size; OpenEXR makes
+// DESIGN.md §9; a view with moments has four more channels "evsm.p", "evsm.p2", "evsm.n", "evsm.n2" and the
+// attributes voxshadow:evsmExponents, voxshadow:evsmBlur, voxshadow:lightBleedReduction) and its JSON sidecar. Each data window starts at (0, 0) with the view's size; OpenEXR makes
 // all parts share one display window, so it is (0, 0) to the largest width and height among the views
 // (equal to every data window when the views have one size). Preconditions: as
 // validateBakedViews; out's directory exists and is writable. Both files go to temporaries in the same

@@ -9,6 +9,8 @@
 #include "compute/tracer.h"
 #include "compute/vulkan/vulkan_tracer.h"
 #include "compute/cpu/cpu_tracer.h"
+#include "lighting/deferred.h"
+#include "lighting/evsm.h"
 #include "lighting/scene.h"
 #include "tools/atomic_file.h"
 #include "tools/resources.h"
@@ -329,7 +331,45 @@ class ShardBaker {
   std::unique_ptr<Tracer> tracer_;
 };
 
+// EVSM: each EVSM light's moment layers (lighting/evsm.h) into `baked` (window order, as the texels), made
+// with the CPU moment pass from the baked depths. Preconditions: baked[i] from views[i], whole.
+void addEvsmMoments(const SceneDesc& desc, std::vector<LightView> views, std::vector<BakedView>& baked) {
+  // The bake's layers are in window order: rings at offset 0 store them so.
+  for (LightView& v : views) v.windowOrigin = glm::i64vec2(0);
+  std::vector<ShadowLayer> layers(views.size());
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    layers[i].width = baked[i].width;
+    layers[i].height = baked[i].height;
+    layers[i].texels = baked[i].texels;
+  }
+  const ShadeInputs inputs = makeShadeInputs(desc, views, layers, false);
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    if (!hasMoments(inputs, i)) continue;
+    const std::size_t n = baked[i].texels.size();
+    const auto first = inputs.moments.begin() + inputs.views[i].trace.w;
+    baked[i].moments.assign(first, first + std::ptrdiff_t(n));
+    const ShadowDesc& s = *desc.lights[std::size_t(views[i].lightIndex)].shadow;
+    baked[i].evsmExponents = glm::vec2(s.evsmPositiveExponent, s.evsmNegativeExponent);
+    baked[i].evsmBlur = s.evsmBlur;
+    baked[i].lightBleedReduction = s.lightBleedReduction;
+  }
+}
+
+// --evsm-moments needs an EVSM light, whose moments a bake of whole layers makes.
+void checkEvsmMoments(const BakeOptions& options, const SceneDesc& desc) {
+  if (!options.evsmMoments) return;
+  const bool any = std::any_of(desc.lights.begin(), desc.lights.end(), [](const LightDesc& l) {
+    return l.enabled && l.shadow && l.shadow->filter == ShadowFilter::Evsm;
+  });
+  if (!any)
+    throwBadInput(options.scene.string() + ": lights: --evsm-moments writes the moments of EVSM lights, and no light's "
+                  "shadow.filter is \"evsm\"");
+}
+
 void checkShardOptions(const BakeOptions& options) {
+  if (options.shard && options.evsmMoments)
+    throwBadInput("--evsm-moments: a shard holds part of a layer, and moments blur across whole layers; give "
+                  "--evsm-moments to bake --shards N --parts DIR, which merges the parts");
   if (options.shard && (options.shards || options.partsDir || options.missingShards))
     throwBadInput("--shard bakes one part file; it cannot be combined with --shards, --parts or --missing-shards");
   if (options.shard) {
@@ -374,6 +414,7 @@ void runShardedBake(const BakeOptions& options) {
   checkInputBytes(options.scene, InputKind::Scene);
   SceneDesc desc = parseSceneFile(options.scene);
   checkSceneAssetBytes(desc);
+  checkEvsmMoments(options, desc);
   const BakeInputs inputs = hashBakeInputs(desc);
   const fs::path dir = *options.partsDir;
   std::vector<fs::path> parts;
@@ -401,6 +442,7 @@ void runShardedBake(const BakeOptions& options) {
   ShardBaker baker(options, desc, inputs, n);
   for (int k : stale) baker.bake(k, parts[std::size_t(k)]);
   std::vector<BakedView> views = mergeBakeParts(parts);
+  if (options.evsmMoments) addEvsmMoments(desc, Scene::load(SceneDesc(desc)).lightViews(), views);
   writeBakeOutputs(options.output, options.preview, views);
   std::printf("merged %d part%s into %s\n", n, n == 1 ? "" : "s", options.output.c_str());
   if (options.preview) std::printf("preview: %s\n", options.preview->c_str());
@@ -468,6 +510,7 @@ void runBake(const BakeOptions& options) {
   SceneDesc desc = parseSceneFile(options.scene);
   checkSceneAssetBytes(desc);
   checkCommandOutputs(desc, outputs, kMaxShadowFileNameBytes);
+  checkEvsmMoments(options, desc);
 
   Scene scene = Scene::load(std::move(desc));
   double loadSeconds = secondsSince(t0);
@@ -500,6 +543,7 @@ void runBake(const BakeOptions& options) {
     texels += layers[i].texels.size();
     baked.push_back(toBaked(views[i], std::move(layers[i])));
   }
+  if (options.evsmMoments) addEvsmMoments(scene.desc(), views, baked);
   auto t2 = Clock::now();
   // One bake, one outcome: the EXR, its sidecar and the preview are committed together or not at all.
   writeBakeOutputs(options.output, options.preview, baked);
@@ -507,8 +551,8 @@ void runBake(const BakeOptions& options) {
 
   std::printf("baked %zu view%s into %s\n", baked.size(), baked.size() == 1 ? "" : "s", options.output.c_str());
   for (const BakedView& b : baked)
-    std::printf("  %-24s %5dx%-5d %s, %s\n", b.name.c_str(), b.width, b.height, b.encoding.c_str(),
-                b.depthPoint.c_str());
+    std::printf("  %-24s %5dx%-5d %s, %s%s\n", b.name.c_str(), b.width, b.height, b.encoding.c_str(),
+                b.depthPoint.c_str(), b.moments.empty() ? "" : ", EVSM moments");
   if (options.preview) std::printf("preview: %s\n", options.preview->c_str());
   if (options.stats) {
     std::printf("stats: backend %s, threads %d\n", options.backend.c_str(), options.threads);
@@ -571,6 +615,8 @@ void registerBake(CLI::App& app) {
   sub->add_option("--parts", options->partsDir,
                   "With --shards: the directory of the part files (kept: a rerun bakes only missing or stale parts)")
       ->type_name("DIR");
+  sub->add_flag("--evsm-moments", options->evsmMoments,
+                "Also write the EVSM lights' moment layers as channels evsm.p, evsm.p2, evsm.n, evsm.n2");
   sub->add_flag("--missing-shards", options->missingShards,
                 "With --shards and --parts: print the shards whose parts are missing or stale (K,K,...) and stop");
   sub->callback([options] { runBake(*options); });

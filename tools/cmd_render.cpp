@@ -24,7 +24,7 @@ namespace vs::cli {
 
 namespace {
 
-// "cascades", "shadow", "normals" or "layer=N".
+// "cascades", "shadow", "normals", "layer=N" or "moments=N".
 void parseDebug(const std::string& text, RenderOptions& options) {
   if (text.empty() || text == "none") return;
   if (text == "cascades") options.debug = DebugView::Cascades;
@@ -36,8 +36,14 @@ void parseDebug(const std::string& text, RenderOptions& options) {
       throwBadInput("--debug " + text + ": layer=N takes a layer index (0, 1, ...)");
     options.debug = DebugView::Layer;
     options.debugLayer = std::stoi(n);
+  } else if (text.rfind("moments=", 0) == 0) {
+    const std::string n = text.substr(8);
+    if (n.empty() || n.size() > 6 || n.find_first_not_of("0123456789") != std::string::npos)
+      throwBadInput("--debug " + text + ": moments=N takes a layer index (0, 1, ...)");
+    options.debug = DebugView::Moments;
+    options.debugLayer = std::stoi(n);
   } else {
-    throwBadInput("--debug " + text + ": expected cascades, shadow, normals or layer=N");
+    throwBadInput("--debug " + text + ": expected cascades, shadow, normals, layer=N or moments=N");
   }
 }
 
@@ -46,6 +52,7 @@ struct FrameSizes {
   int width = 0, height = 0;
   std::uint64_t pixels = 0, lights = 0;
   std::uint64_t layerBytes = 0;            // every shadow layer the frame traces
+  std::uint64_t momentBytes = 0;           // EVSM: the moment store and the moment pass's scratch (16 B each)
   std::uint64_t maxW = 0, maxH = 0, views = 0;
   std::uint64_t rays = 0;                  // visibility rays: one per pixel and light when any light needs them
 };
@@ -59,9 +66,12 @@ FrameSizes frameSizes(const Scene& scene, const RenderOptions& render) {
   f.pixels = std::uint64_t(camera.width) * std::uint64_t(camera.height);
   f.lights = desc.lights.size();
   const bool raytraced = render.shadows == ShadowSource::Raytraced;
-  if (!raytraced || render.debug == DebugView::Layer)
+  if (!raytraced || render.debug == DebugView::Layer || render.debug == DebugView::Moments)
     for (const LightView& v : buildLightViews(desc, scene.worldBounds(), &camera)) {
       f.layerBytes += std::uint64_t(v.trace.info.x) * std::uint64_t(v.trace.info.y) * sizeof(float);
+      const LightDesc& l = desc.lights[std::size_t(v.lightIndex)];
+      if (!raytraced && l.shadow && l.shadow->filter == ShadowFilter::Evsm)
+        f.momentBytes += std::uint64_t(v.trace.info.x) * std::uint64_t(v.trace.info.y) * 32;
       f.maxW = std::max<std::uint64_t>(f.maxW, std::uint64_t(v.trace.info.x));
       f.maxH = std::max<std::uint64_t>(f.maxH, std::uint64_t(v.trace.info.y));
       ++f.views;
@@ -99,8 +109,8 @@ std::uint64_t renderBytesNeeded(const FrameSizes& f, bool exr, const VulkanDevic
       layers + vTrace,
       layers + pixels * (48 + 32 + 64) + vTrace + vPrimary,
       2 * layers + gbuffer + receivers + f.rays * 4 + vTrace + vPrimary + vVisibility,
-      2 * layers + gbuffer + 2 * perLight + pixels * 16 + vTrace + vPrimary + vVisibility + vShade,
-      layers + gbuffer + pixels * 16 + perLight + file + vTrace + vPrimary + vVisibility + vShade,
+      2 * layers + f.momentBytes + gbuffer + 2 * perLight + pixels * 16 + vTrace + vPrimary + vVisibility + vShade,
+      layers + f.momentBytes + gbuffer + pixels * 16 + perLight + file + vTrace + vPrimary + vVisibility + vShade,
   };
   return *std::max_element(std::begin(stages), std::end(stages));
 }
@@ -202,7 +212,7 @@ void registerRender(CLI::App& app) {
   sub->add_option("--shadows", options->shadows, "Shadow maps, or one exact visibility ray per pixel and light")
       ->check(CLI::IsMember({"maps", "raytraced"}))
       ->capture_default_str();
-  sub->add_option("--debug", options->debug, "Debug view: cascades, shadow, normals or layer=N");
+  sub->add_option("--debug", options->debug, "Debug view: cascades, shadow, normals, layer=N (a shadow layer's depths) or moments=N (its EVSM moments)");
   sub->add_option("--width", options->width, "Image width (default: the camera's)");
   sub->add_option("--height", options->height, "Image height (default: the camera's)");
   addThreadsOption(sub, options->threads, "CPU threads (0: all)", 0);

@@ -45,6 +45,10 @@ struct BakeOptions {
   std::optional<int> shards;
   std::optional<std::filesystem::path> partsDir;
   bool missingShards = false;
+  // EVSM: also write each EVSM light's moment layers as extra channels (bake_output.h); refused when no light
+  // uses EVSM, and with --shard (moments need whole layers: they are made when the parts are merged by
+  // bake --shards).
+  bool evsmMoments = false;
 };
 
 // The bake shared by `bake` and `demo`. Preconditions: none; bad paths or scenes throw vs::Error(BadInput)

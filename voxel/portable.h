@@ -12,6 +12,7 @@
 #define VS_INOUT(T) inout T
 #define VS_OUT(T) out T
 #define VS_PRECISE precise
+#define VS_INLINE
 #define VS_NAMESPACE_BEGIN
 #define VS_NAMESPACE_END
 #define VS_LAYOUT_CHECK(Type, size)
@@ -26,6 +27,8 @@
 #define VS_INOUT(T) T&
 #define VS_OUT(T) T&
 #define VS_PRECISE
+// A function defined in a shared header read at namespace scope (not inside an includer's struct).
+#define VS_INLINE inline
 #define VS_NAMESPACE_BEGIN \
   namespace vs::gpu {      \
   using namespace glm;     \

@@ -8,6 +8,7 @@
 #include "compute/shared/trace_view.h"
 #include "lighting/shared/shading_layout.h"
 #include "lighting/shared/lighting_interface.h"
+#include "lighting/shared/evsm.h"
 
 layout(local_size_x = VS_LIGHTING_GROUP_WIDTH, local_size_y = VS_LIGHTING_GROUP_HEIGHT, local_size_z = 1) in;
 
@@ -19,8 +20,12 @@ layout(std430, set = 0, binding = VS_LIGHTING_BINDING_VISIBILITY) readonly buffe
 layout(std430, set = 0, binding = VS_LIGHTING_BINDING_SHADOW_TERMS) writeonly buffer TermBlock { float shadowTerms[]; };
 layout(std430, set = 0, binding = VS_LIGHTING_BINDING_COLOR) writeonly buffer ColorBlock { vec4 color[]; };
 layout(std430, set = 0, binding = VS_LIGHTING_BINDING_PIXELS) readonly buffer PixelBlock { uint listedPixels[]; };
+layout(std430, set = 0, binding = VS_LIGHTING_BINDING_MOMENTS) readonly buffer MomentBlock { vec2 momentPositive[]; };
+layout(std430, set = 0, binding = VS_LIGHTING_BINDING_MOMENTS_NEGATIVE) readonly buffer MomentNegativeBlock { vec2 momentNegative[]; };
 
 layout(push_constant) uniform PushBlock { ShadePush push; };
+
+vec4 vsLoadMoments(int i) { return vec4(momentPositive[i], momentNegative[i]); }
 
 #include "lighting/shared/shading.h"
 

@@ -23,7 +23,20 @@ const uint VS_LIGHTING_BINDING_COLOR = 6u;          // vec4 per pixel (written)
 // uint per listed pixel (row-major index): a frame that shades again only the pixels its changes touched runs
 // one invocation per listed pixel (ShadePush.flags.y of them) instead of one per pixel of the frame.
 const uint VS_LIGHTING_BINDING_PIXELS = 7u;
-const uint VS_LIGHTING_BINDING_COUNT = 8u;
+// EVSM (lighting/shared/evsm.h; the moment pass, lighting/shaders/evsm_moments.comp, shares this set):
+// Each moment texel (p, p^2, n, n^2) as two vec2, the positive warp's and the negative's, in two buffers: half
+// the bytes per buffer, for devices whose maxStorageBufferRange is 2^27 (lavapipe).
+const uint VS_LIGHTING_BINDING_MOMENTS = 8u;      // vec2 (p, p^2) per moment texel (written by the moment pass)
+const uint VS_LIGHTING_BINDING_EVSM_VIEWS = 9u;   // EvsmView per ShadeView
+const uint VS_LIGHTING_BINDING_EVSM_JOBS = 10u;   // EvsmJob per rectangle of a moment pass
+const uint VS_LIGHTING_BINDING_EVSM_BORDER = 11u; // int: cube faces' texels past their edges, as store indices
+const uint VS_LIGHTING_BINDING_EVSM_SCRATCH = 12u;// vec2: the horizontal pass's sums, positive warp
+const uint VS_LIGHTING_BINDING_MOMENTS_NEGATIVE = 13u;  // vec2 (n, n^2) per moment texel
+const uint VS_LIGHTING_BINDING_EVSM_SCRATCH_NEGATIVE = 14u;  // vec2: the horizontal pass's sums, negative warp
+const uint VS_LIGHTING_BINDING_COUNT = 15u;
+
+// The moment pass: 64 invocations a workgroup, over a flat index of its jobs' texels.
+const uint VS_EVSM_GROUP_SIZE = 64u;
 
 VS_NAMESPACE_END
 

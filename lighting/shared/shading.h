@@ -9,7 +9,9 @@
 //   rayVisibility[i] (uint): per pixel and light (pixel * lightCount + light), 1 where the exact visibility
 //     ray toward the light (its whole length for ray-traced shadows, the contact length otherwise) is clear
 //   shadowTerms[i] (float, written): per pixel and light, the shadow term vsShadePixel used
-// C++ includes this inside a struct that holds those members (lighting/deferred.cpp).
+//   vsLoadMoments(i) (a function, vec4): texel i of the EVSM moment store (lighting/shared/evsm_pass.h),
+//     ShadeView.trace.w
+// The includer includes lighting/shared/evsm.h first. C++ includes this inside a struct that holds those members (lighting/deferred.cpp).
 #ifndef VOXSHADOW_SHADING_H
 #define VOXSHADOW_SHADING_H
 
@@ -171,12 +173,32 @@ float vsFilterPcss(VS_IN(ShadeView) view, vec2 texel, VS_IN(VsReceiver) r, vec2 
   return vsFilterDisc(view, texel, r, rotation, radius);
 }
 
+// The blurred moments of texel t of the view's window, clamped to the window, at its ring place.
+vec4 vsStoredMoments(VS_IN(ShadeView) view, ivec2 t) {
+  int w = view.info.y;
+  ivec2 c = clamp(t, ivec2(0), ivec2(w - 1));
+  ivec2 s = ivec2((c.x + view.trace.y) & (w - 1), (c.y + view.trace.z) & (w - 1));
+  return vsLoadMoments(view.trace.w + s.y * w + s.x);
+}
+
+// EVSM: the moments bilinearly filtered where the receiver projects (the blur made them smooth: one fetch of
+// four texels), against the biased receiver's depth.
+float vsFilterEvsm(VS_IN(ShadeView) view, vec2 texel, VS_IN(VsReceiver) r, vec4 evsm) {
+  vec2 at = texel - vec2(0.5f);
+  ivec2 t = ivec2(floor(at));
+  vec2 f = at - floor(at);
+  vec4 top = mix(vsStoredMoments(view, t), vsStoredMoments(view, t + ivec2(1, 0)), f.x);
+  vec4 bottom = mix(vsStoredMoments(view, t + ivec2(0, 1)), vsStoredMoments(view, t + ivec2(1, 1)), f.x);
+  return vsEvsmShadow(mix(top, bottom, f.y), r.depth, view.eyeLow.w, evsm);
+}
+
 // How far (texels) a filter reads from its centre: the lateral check's margin.
 float vsFilterReach(int kind) {
   if (kind == VS_FILTER_PCF3) return 1.5f;
   if (kind == VS_FILTER_PCF5) return 2.5f;
   if (kind == VS_FILTER_POISSON16) return VS_POISSON_RADIUS + 0.5f;
   if (kind == VS_FILTER_PCSS) return VS_PCSS_MAX_RADIUS + 0.5f;
+  if (kind == VS_FILTER_EVSM) return 1.0f;
   return 0.5f;
 }
 
@@ -213,6 +235,7 @@ float vsViewShadow(VS_IN(ShadeLight) light, int viewIndex, vec3 p, vec3 n, vec3 
   if (kind == VS_FILTER_HARD) return vsCompare(view, ivec2(floor(texel)), r);
   if (kind == VS_FILTER_PCF3) return vsFilterBox(view, texel, r, 1);
   if (kind == VS_FILTER_PCF5) return vsFilterBox(view, texel, r, 2);
+  if (kind == VS_FILTER_EVSM) return vsFilterEvsm(view, texel, r, light.evsm);
   vec2 rotation = vsDiscRotation(p, texelWorld);
   if (kind == VS_FILTER_POISSON16) return vsFilterDisc(view, texel, r, rotation, VS_POISSON_RADIUS);
   return vsFilterPcss(view, texel, r, rotation, light.bias.w, texelWorld);

@@ -20,6 +20,7 @@ const int VS_FILTER_PCF3 = 1;
 const int VS_FILTER_PCF5 = 2;
 const int VS_FILTER_POISSON16 = 3;
 const int VS_FILTER_PCSS = 4;
+const int VS_FILTER_EVSM = 5;  // exponential variance shadow maps: the layer's moments (lighting/shared/evsm.h)
 
 // ShadePush.mode: what the pass writes.
 const int VS_SHADE_LIT = 0;             // ambient + lights, linear HDR
@@ -54,6 +55,8 @@ struct ShadeLight {
   vec4 extra;      // x: cos of the inner cone; y: contact-shadow length (world, 0: off); z: cascade blend band
                    // (share of each cascade's depth range); w: 0
   ivec4 info;      // x: VS_LIGHT_*; y: VS_FILTER_*; z: its first ShadeView; w: its view count
+  vec4 evsm;       // VS_FILTER_EVSM: x, y: the positive and negative warp exponents; z: the light-bleeding
+                   // reduction (0..1); w: the blur radius (texels); 0 for other filters
 };
 
 // A shadow layer as the pass samples it. The texel rays are rebuilt exactly as the trace kernels built them
@@ -65,13 +68,40 @@ struct ShadeView {
   vec4 eye;        // xyz: the eye of the layer's rays rounded to float, the TraceView's eyeHigh (spot, point: the
                    // light); w: the world size of a texel (directional), or of a texel at unit distance (spot,
                    // point)
-  vec4 eyeLow;     // xyz: the rest of the eye (TraceView eyeLow); w: 0
+  vec4 eyeLow;     // xyz: the rest of the eye (TraceView eyeLow); w: 1 / the miss value: the scale that maps a
+                   // stored depth to [0, 1] for EVSM's warp
   vec4 split;      // x, y: the camera view depths a cascade covers; z: the miss value; w: world units per unit
                    // of the encoded depth (pcss)
   ivec4 info;      // x: the layer's first texel in the layer buffer; y: its width (= height); z: VS_ENCODING_*;
                    // w: the cascade index, -1 for other views
   ivec4 trace;     // x: VS_DEPTH_POINT_* of the stored depths; y, z: where window texel (0, 0) is stored (a
-                   // cascade's ring offset; 0 for other views); w: 0
+                   // cascade's ring offset; 0 for other views); w: the layer's first moment texel in the moment
+                   // store (an EVSM light's view, stored in the same ring order as its depths), else -1
+};
+
+// One EVSM layer as the moment pass reads it (lighting/shared/evsm.h), beside the ShadeView of the same index.
+struct EvsmView {
+  ivec4 layer;  // x: the first depth texel in the layer store; y: the resolution N; z: the first moment texel
+                // (-1: the view has no moments); w: the blur radius r (texels)
+  ivec4 place;  // x, y: where window texel (0, 0) is stored (ring offset); z: the first entry of the view's
+                // border map (cube faces, evsmBorder), -1 where texels past the window's edge read its edge;
+                // w: 0
+  vec4 warp;    // x, y: the positive and negative exponents; z: 1 / the miss value; w: 1 / (2r + 1)
+};
+
+// A rectangle of one EVSM layer whose moments a moment pass computes: window texels [x0, x1) x [y0, y1).
+// The horizontal pass sums rows y0 - r .. y1 + r into the job's scratch; the vertical pass sums those into the
+// moments.
+struct EvsmJob {
+  ivec4 rect;  // x0, y0, x1, y1 (window texels, inside the window)
+  ivec4 info;  // x: the EvsmView; y: its first invocation of the horizontal pass; z: of the vertical pass;
+               // w: its first scratch texel
+};
+
+// The moment pass's push block.
+struct EvsmPush {
+  ivec4 pass;  // x: 0 horizontal, 1 vertical; y: the job count; z: the pass's invocations; w: invocations a
+               // row of the dispatch grid holds
 };
 
 // The pass's push block.
@@ -93,7 +123,14 @@ VS_LAYOUT_CHECK(GBufferTexel, 64);
 VS_OFFSET_CHECK(GBufferTexel, normal, 16);
 VS_OFFSET_CHECK(GBufferTexel, albedo, 32);
 VS_OFFSET_CHECK(GBufferTexel, info, 48);
-VS_LAYOUT_CHECK(ShadeLight, 96);
+VS_LAYOUT_CHECK(ShadeLight, 112);
+VS_OFFSET_CHECK(ShadeLight, evsm, 96);
+VS_LAYOUT_CHECK(EvsmView, 48);
+VS_OFFSET_CHECK(EvsmView, place, 16);
+VS_OFFSET_CHECK(EvsmView, warp, 32);
+VS_LAYOUT_CHECK(EvsmJob, 32);
+VS_OFFSET_CHECK(EvsmJob, info, 16);
+VS_LAYOUT_CHECK(EvsmPush, 16);
 VS_OFFSET_CHECK(ShadeLight, position, 16);
 VS_OFFSET_CHECK(ShadeLight, direction, 32);
 VS_OFFSET_CHECK(ShadeLight, bias, 48);
