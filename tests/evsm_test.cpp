@@ -203,6 +203,18 @@ TEST(Evsm, VulkanMomentsEqualTheCpusBitForBit) {
   EXPECT_LE(termsDiffer, host.shadowTerms.size() / 1000);
   std::printf("EVSM on both backends: %zu moment texels equal; largest colour difference %.2e, %zu of %zu terms "
               "differ by more than 1e-4\n", texels, worst, termsDiffer, host.shadowTerms.size());
+  // The moments debug view of the torch's first face: the same image from both backends' moments, and not flat.
+  RenderOptions debug = smallFrame();
+  debug.debug = DebugView::Moments;
+  debug.debugLayer = 4;
+  const std::vector<glm::vec4> gpuDebug = onGpu.render(scene, debug).color, cpuDebug = onCpu.render(scene, debug).color;
+  ASSERT_EQ(gpuDebug.size(), cpuDebug.size());
+  EXPECT_EQ(0, std::memcmp(gpuDebug.data(), cpuDebug.data(), cpuDebug.size() * sizeof(glm::vec4)));
+  const auto [darkest, brightest] = std::minmax_element(cpuDebug.begin(), cpuDebug.end(),
+                                                        [](const glm::vec4& a, const glm::vec4& b) { return a.x < b.x; });
+  EXPECT_LT(darkest->x + 0.05f, brightest->x);
+  onGpu.render(scene, smallFrame());
+  onCpu.render(scene, smallFrame());
   // A still frame: no texel traced, no moment computed.
   for (FrameRenderer* r : {&onGpu, &onCpu}) {
     const RenderedFrame& still = r->render(scene, smallFrame());
