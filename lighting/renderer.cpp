@@ -765,7 +765,12 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
         shaded = s.lighting->shade(inputs, push, frame.gbuffer, visible, &traffic, &whole);
       } else {
         s.pendingTexels.insert(s.pendingTexels.end(), tracedTexels.begin(), tracedTexels.end());
-        ShadeChanges changes{s.pendingTexels, pixels, inputPixels, shadeAll, deviceStore};
+        ShadeChanges changes;
+        changes.texelRanges = s.pendingTexels;
+        changes.pixels = pixels;
+        changes.inputPixels = inputPixels;
+        changes.allPixels = shadeAll;
+        changes.storeInPlace = deviceStore;
         changes.moments = &momentJobs;
         changes.wholeMoments = wholeMoments;
         s.lighting->shadeChanged(inputs, push, frame.gbuffer, visible, changes, shaded, &traffic);

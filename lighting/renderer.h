@@ -111,7 +111,8 @@ class FrameRenderer {
   std::vector<ShadowLayer> layers() const;
   // The EVSM moment layers of that frame (lighting/shared/evsm.h), one per view in the same order and storage
   // order, each (p, p^2, n, n^2) per texel; empty for views whose light does not use EVSM. On Vulkan they are
-  // read back from the device now.
+  // read back from the device now; there, after a frame without shadow maps (ray-traced shadows), the device
+  // no longer holds them and this throws vs::Error until the next frame with maps.
   std::vector<std::vector<glm::vec4>> moments() const;
   // Makes the next frame redo everything (a benchmark's forced full frame).
   void invalidateLayers() { forceFull_ = true; }

@@ -39,26 +39,8 @@ struct VulkanLighting::Impl {
     vk::check(vkCreateDescriptorSetLayout(dev, &dl, nullptr, &setLayout), "vkCreateDescriptorSetLayout");
     pipeline.setLayout = vk::UniqueDescriptorSetLayout(dev, setLayout);
 
-    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::ShadePush)};
-    auto pl = vk::make<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
-    pl.setLayoutCount = 1;
-    pl.pSetLayouts = &setLayout;
-    pl.pushConstantRangeCount = 1;
-    pl.pPushConstantRanges = &range;
-    VkPipelineLayout layout = VK_NULL_HANDLE;
-    vk::check(vkCreatePipelineLayout(dev, &pl, nullptr, &layout), "vkCreatePipelineLayout");
-    pipeline.layout = vk::UniquePipelineLayout(dev, layout);
-
     module = context.createShaderModule(deferred_lighting, sizeof deferred_lighting);
-    auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
-    ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
-    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    ci.stage.module = module.get();
-    ci.stage.pName = "main";
-    ci.layout = layout;
-    VkPipeline p = VK_NULL_HANDLE;
-    vk::check(vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &ci, nullptr, &p), "vkCreateComputePipelines");
-    pipeline.pipeline = vk::UniquePipeline(dev, p);
+    makePipeline(module.get(), sizeof(gpu::ShadePush), pipeline.layout, pipeline.pipeline);
 
     VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::VS_LIGHTING_BINDING_COUNT};
     auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
@@ -157,11 +139,12 @@ struct VulkanLighting::Impl {
             inputs.momentTexels};
   }
 
-  void makeMomentPipeline() {
-    if (momentPipeline) return;
+  // A compute pipeline of `shader` over the pass's descriptor set with a push block of `pushBytes`.
+  void makePipeline(VkShaderModule shader, std::uint32_t pushBytes, vk::UniquePipelineLayout& layoutOut,
+                    vk::UniquePipeline& pipelineOut) {
     VkDevice dev = context.device();
     VkDescriptorSetLayout setLayout = pipeline.setLayout.get();
-    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::EvsmPush)};
+    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes};
     auto pl = vk::make<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
     pl.setLayoutCount = 1;
     pl.pSetLayouts = &setLayout;
@@ -169,17 +152,22 @@ struct VulkanLighting::Impl {
     pl.pPushConstantRanges = &range;
     VkPipelineLayout layout = VK_NULL_HANDLE;
     vk::check(vkCreatePipelineLayout(dev, &pl, nullptr, &layout), "vkCreatePipelineLayout");
-    momentLayout = vk::UniquePipelineLayout(dev, layout);
-    momentModule = context.createShaderModule(evsm_moments, sizeof evsm_moments);
+    layoutOut = vk::UniquePipelineLayout(dev, layout);
     auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
     ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    ci.stage.module = momentModule.get();
+    ci.stage.module = shader;
     ci.stage.pName = "main";
     ci.layout = layout;
     VkPipeline p = VK_NULL_HANDLE;
     vk::check(vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &ci, nullptr, &p), "vkCreateComputePipelines");
-    momentPipeline = vk::UniquePipeline(dev, p);
+    pipelineOut = vk::UniquePipeline(dev, p);
+  }
+
+  void makeMomentPipeline() {
+    if (momentPipeline) return;
+    momentModule = context.createShaderModule(evsm_moments, sizeof evsm_moments);
+    makePipeline(momentModule.get(), sizeof(gpu::EvsmPush), momentLayout, momentPipeline);
   }
 
   // Writes the moment pass's records (the store's buffers were sized by sizeFor); the pass itself is recorded

@@ -71,16 +71,8 @@ TermDifferences compareTerms(const Scene& scene, const RenderedFrame& maps, cons
   const LightDesc& l = scene.desc().lights[light];
   const std::size_t lights = maps.lightNames.size();
   for (std::size_t i = 0; i < maps.gbuffer.texels.size(); ++i) {
-    const gpu::GBufferTexel& g = maps.gbuffer.texels[i];
-    if (g.info.w == 0u) continue;
-    const glm::dvec3 p(glm::vec3(g.position));
-    const glm::dvec3 toLight = l.type == LightType::Directional ? -glm::dvec3(l.direction)
-                                                                : glm::normalize(glm::dvec3(l.position) - p);
-    if (l.type != LightType::Directional && glm::length(glm::dvec3(l.position) - p) > l.range) continue;
-    if (l.type == LightType::Spot &&
-        glm::dot(-toLight, glm::dvec3(l.direction)) < std::cos(glm::radians(double(l.outerConeDeg))))
-      continue;
-    if (!(glm::dot(glm::dvec3(glm::vec3(g.normal)), toLight) > 0.0)) continue;
+    glm::dvec3 toLight;
+    if (!test::receivesLight(l, maps.gbuffer.texels[i], toLight)) continue;
     ++d.receivers;
     const double diff = std::abs(double(maps.shadowTerms[i * lights + light]) - double(truth.shadowTerms[i * lights + light]));
     if (diff > 0.5) ++d.overHalf;

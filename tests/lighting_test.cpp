@@ -265,16 +265,8 @@ TEST(LightingTruth, DemoSceneAgreesWithRayTracedShadows) {
       const std::size_t lights = maps.lightNames.size();
       for (std::size_t i = 0; i < maps.gbuffer.texels.size(); ++i) {
         const gpu::GBufferTexel& g = maps.gbuffer.texels[i];
-        if (g.info.w == 0u) continue;
-        const glm::dvec3 p(glm::vec3(g.position));
-        const glm::dvec3 toLight = light.type == LightType::Directional ? -glm::dvec3(light.direction)
-                                                                         : glm::normalize(glm::dvec3(light.position) - p);
-        if (light.type != LightType::Directional && glm::length(glm::dvec3(light.position) - p) > light.range) continue;
-        // A spot light's view covers its cone; outside it the light adds nothing and its maps say lit.
-        if (light.type == LightType::Spot &&
-            glm::dot(-toLight, glm::dvec3(light.direction)) < std::cos(glm::radians(double(light.outerConeDeg))))
-          continue;
-        if (!(glm::dot(glm::dvec3(glm::vec3(g.normal)), toLight) > 0.0)) continue;
+        glm::dvec3 toLight;
+        if (!test::receivesLight(light, g, toLight)) continue;
         const bool mapLit = maps.shadowTerms[i * lights + l] > 0.5f, trueLit = truth.shadowTerms[i * lights + l] > 0.5f;
         TruthComparison& counted = texelsPerPixel(maps, camera, int(l), g, toLight) >= 1.0 ? c : sparse;
         ++counted.receivers;

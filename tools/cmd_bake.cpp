@@ -171,7 +171,16 @@ std::uint64_t hostBytesNeeded(const std::vector<LightView>& views, bool preview,
 
 void checkHostMemory(const Scene& scene, const std::vector<LightView>& views, const BakeOptions& options,
                      const VulkanDeviceInfo* device) {
-  const std::uint64_t need = hostBytesNeeded(views, options.preview.has_value(), device);
+  std::uint64_t need = hostBytesNeeded(views, options.preview.has_value(), device);
+  if (options.evsmMoments) {
+    // The moment pass's inputs (a copy of every layer), and per EVSM layer its moments, their scratch and the
+    // copy the EXR writer interleaves (16 bytes a texel each).
+    for (const LightView& v : views) {
+      need += layerBytes(v);
+      const LightDesc& l = scene.desc().lights[std::size_t(v.lightIndex)];
+      if (l.shadow && l.shadow->filter == ShadowFilter::Evsm) need += layerBytes(v) / sizeof(float) * 48;
+    }
+  }
   std::uint64_t texels = 0;
   for (const LightView& v : views) texels += layerBytes(v) / sizeof(float);
   checkMemoryNeed(need, memoryBudget(options.memoryBudget, tracingCommandThreads(options.threads)),

@@ -77,4 +77,15 @@ std::filesystem::path writeLightingScene(const std::filesystem::path& dir, const
   return file;
 }
 
+bool receivesLight(const LightDesc& light, const gpu::GBufferTexel& g, glm::dvec3& toLight) {
+  if (g.info.w == 0u) return false;
+  const glm::dvec3 p(glm::vec3(g.position));
+  toLight = light.type == LightType::Directional ? -glm::dvec3(light.direction) : glm::normalize(glm::dvec3(light.position) - p);
+  if (light.type != LightType::Directional && glm::length(glm::dvec3(light.position) - p) > light.range) return false;
+  if (light.type == LightType::Spot &&
+      glm::dot(-toLight, glm::dvec3(light.direction)) < std::cos(glm::radians(double(light.outerConeDeg))))
+    return false;
+  return glm::dot(glm::dvec3(glm::vec3(g.normal)), toLight) > 0.0;
+}
+
 }  // namespace vs::test

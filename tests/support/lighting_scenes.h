@@ -11,6 +11,9 @@
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
 
+#include "lighting/scene_file.h"
+#include "lighting/shared/shading_layout.h"
+
 namespace vs::test {
 
 struct VoxelBoxSet {
@@ -34,6 +37,11 @@ std::filesystem::path writeLightingScene(const std::filesystem::path& dir, const
                                          const std::filesystem::path& vdb, const glm::dvec3& sunDir,
                                          const nlohmann::json& shadow = nlohmann::json::object(),
                                          const nlohmann::json& camera = nlohmann::json::object());
+
+// Whether G-buffer texel g is a receiver of `light` as the ray-traced truth sees it: a hit within a spot or
+// point light's range (and a spot light's cone, outside which its maps say lit) whose face turns to the light;
+// toLight is set to the unit direction toward the light.
+bool receivesLight(const LightDesc& light, const gpu::GBufferTexel& g, glm::dvec3& toLight);
 
 }  // namespace vs::test
 
