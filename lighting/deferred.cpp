@@ -43,6 +43,13 @@ int filterCode(ShadowFilter f) {
   return gpu::VS_FILTER_HARD;
 }
 
+// The CPU pass reads the moments of EVSM views from inputs.moments (makeShadeInputs or the frame loop fill it).
+void checkMomentStore(const ShadeInputs& inputs) {
+  if (inputs.moments.size() != inputs.momentTexels)
+    throwBadInput("lighting: the EVSM moment store holds " + std::to_string(inputs.moments.size()) + " texels, its views " +
+                  std::to_string(inputs.momentTexels));
+}
+
 int lightCode(LightType t) {
   switch (t) {
     case LightType::Directional: return gpu::VS_LIGHT_DIRECTIONAL;
@@ -173,9 +180,7 @@ ShadeOutput shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, co
                        std::span<const std::uint32_t> rayVisibility) {
   std::vector<std::uint32_t> clear;
   rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
-  if (inputs.moments.size() != inputs.momentTexels)
-    throwBadInput("lighting: the EVSM moment store holds " + std::to_string(inputs.moments.size()) + " texels, its views " +
-                  std::to_string(inputs.momentTexels));
+  checkMomentStore(inputs);
   const std::size_t pixels = gbuffer.texels.size();
   const std::size_t lights = inputs.lights.size();
   ShadeOutput out;
@@ -196,9 +201,7 @@ void shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBu
                 std::span<const std::uint32_t> rayVisibility, std::span<const std::uint32_t> pixels, ShadeOutput& out) {
   std::vector<std::uint32_t> clear;
   rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
-  if (inputs.moments.size() != inputs.momentTexels)
-    throwBadInput("lighting: the EVSM moment store holds " + std::to_string(inputs.moments.size()) + " texels, its views " +
-                  std::to_string(inputs.momentTexels));
+  checkMomentStore(inputs);
   const std::size_t lights = inputs.lights.size();
   if (out.color.size() != gbuffer.texels.size() || out.shadowTerms.size() != gbuffer.texels.size() * lights)
     throwBadInput("lighting: the output to update is not sized for this frame");
@@ -213,6 +216,7 @@ void shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBu
 float shadowTermAt(const ShadeInputs& inputs, std::size_t light, const gpu::GBufferTexel& texel,
                    std::uint32_t visibility, bool raytraced) {
   if (light >= inputs.lights.size()) throwBadInput("lighting: no light " + std::to_string(light));
+  checkMomentStore(inputs);
   gpu::CpuShading shading{inputs.shadowTexels.data(), inputs.views.data(), inputs.lights.data(), nullptr, nullptr,
                           inputs.moments.data()};
   return shading.vsShadowTerm(inputs.lights[light], texel, visibility, raytraced);

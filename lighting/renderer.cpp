@@ -604,11 +604,11 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
     momentTouched[i] = std::move(changed);
   }
   const MomentWork momentJobs = momentWork(views, inputs, momentRects);
-  stats.momentTexels = momentJobs.vertical;
   auto wholeMoments = [&]() { return momentWork(views, inputs, wholeMomentRects(inputs)); };
   if (!vulkan) {
     if (momentsKept) inputs.moments.swap(s.storeMoments);
     computeMomentsOnCpu(inputs, momentJobs, inputs.moments);
+    stats.momentTexels = momentJobs.vertical;
     if (!momentJobs.empty()) stats.dispatches += 1;
   }
   if (vulkan && !deviceStore) stats.bytesReadBack += stats.texelsTraced * sizeof(float);
@@ -778,6 +778,8 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
       s.pendingTexels.clear();
       s.lightingHeld = true;
       stats.pixelsShaded = traffic.pixelsShaded;
+      // The pass's own count: where it held no moments of this frame's size it computed the whole store.
+      stats.momentTexels = traffic.momentTexels;
       stats.dispatches += traffic.dispatches;
       stats.bytesUploaded += traffic.uploaded;
       stats.bytesReadBack += traffic.readBack;

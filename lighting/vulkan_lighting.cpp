@@ -100,8 +100,9 @@ struct VulkanLighting::Impl {
   // The moment pass's work of the current call, recorded before the lighting dispatch (null: none).
   const MomentWork* momentWork = nullptr;
 
-  // Pixels shaded and dispatches recorded by the current call.
+  // Pixels shaded, moments computed and dispatches recorded by the current call.
   std::size_t shadedPixels = 0;
+  std::size_t momentTexels = 0;
   int dispatches = 0;
 
   // The sizes the buffers' contents were last written for (pixels, lights, views, texels, visibility answers);
@@ -338,7 +339,10 @@ struct VulkanLighting::Impl {
     }
     const MomentWork* moments = momentWork;
     momentWork = nullptr;
-    if (moments) dispatches += 2;
+    if (moments) {
+      dispatches += 2;
+      momentTexels += moments->vertical;
+    }
     context.submitAndWait([&](VkCommandBuffer cmd) {
       // The host's writes above (and the trace's, into the store), before the shaders read them.
       auto toShader = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
@@ -417,9 +421,11 @@ ShadeOutput VulkanLighting::shade(const ShadeInputs& inputs, const gpu::ShadePus
                                   const MomentWork* moments) {
   LightingTraffic t;
   impl_->shadedPixels = 0;
+  impl_->momentTexels = 0;
   impl_->dispatches = 0;
   ShadeOutput out = impl_->shade(inputs, push, gbuffer, rayVisibility, t, false, moments);
   t.pixelsShaded = impl_->shadedPixels;
+  t.momentTexels = impl_->momentTexels;
   t.dispatches = impl_->dispatches;
   if (traffic) *traffic = t;
   return out;
@@ -430,9 +436,11 @@ void VulkanLighting::shadeChanged(const ShadeInputs& inputs, const gpu::ShadePus
                                   ShadeOutput& out, LightingTraffic* traffic) {
   LightingTraffic t;
   impl_->shadedPixels = 0;
+  impl_->momentTexels = 0;
   impl_->dispatches = 0;
   impl_->shadeChanged(inputs, push, gbuffer, rayVisibility, changes, out, t);
   t.pixelsShaded = impl_->shadedPixels;
+  t.momentTexels = impl_->momentTexels;
   t.dispatches = impl_->dispatches;
   if (traffic) *traffic = t;
 }

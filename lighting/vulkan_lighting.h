@@ -19,6 +19,7 @@ struct LightingTraffic {
   std::uint64_t uploaded = 0;
   std::uint64_t readBack = 0;
   std::uint64_t pixelsShaded = 0;
+  std::uint64_t momentTexels = 0;  // EVSM moments computed (the whole store where the pass held none)
   int dispatches = 0;
 };
 

@@ -461,6 +461,15 @@ TEST(Evsm, BakeWritesTheMomentsAsChannels) {
       EXPECT_EQ(v["evsm"]["channels"][0], "evsm.p");
     }
   EXPECT_EQ(sidecarMoments, 1);
+  // Two shards merged with the moments: the very files of the single bake.
+  ASSERT_EQ(test::runCli("bake " + test::quote(scene) + " --shards 2 --parts " + test::quote(dir / "parts") + " -o " +
+                             test::quote(dir / "sharded.exr") + " --backend cpu --evsm-moments", out), 0) << out;
+  auto bytes = [](const fs::path& f) {
+    std::ifstream in(f, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_EQ(bytes(dir / "sharded.exr"), bytes(exr));
+  EXPECT_EQ(bytes(dir / "sharded.exr.json"), bytes(dir / "out.exr.json"));
   // Refusals: exit 2, nothing written.
   EXPECT_EQ(test::runCli("bake " + test::quote(written.back()) + " -o " + test::quote(dir / "no.exr") +
                              " --backend cpu --evsm-moments", out), 2) << out;

@@ -151,6 +151,19 @@ std::vector<ShadowLayer> traceInBatches(const Scene& scene, const std::vector<Li
 // What the bake holds in host memory at its peak: every layer (they are written together), one more layer's
 // worth for the EXR writer, the preview sheet, and on a CPU Vulkan device (lavapipe, whose device memory
 // is host memory) a batch's image and readback and the driver's own working memory.
+// What addEvsmMoments holds besides the baked layers: two copies of every layer (its own and the moment
+// pass's inputs), and per EVSM layer its moments, their scratch and the copy the EXR writer interleaves
+// (16 bytes a texel each).
+std::uint64_t evsmMomentBytes(const SceneDesc& desc, const std::vector<LightView>& views) {
+  std::uint64_t need = 0;
+  for (const LightView& v : views) {
+    need += 2 * layerBytes(v);
+    const LightDesc& l = desc.lights[std::size_t(v.lightIndex)];
+    if (l.shadow && l.shadow->filter == ShadowFilter::Evsm) need += layerBytes(v) / sizeof(float) * 48;
+  }
+  return need;
+}
+
 std::uint64_t hostBytesNeeded(const std::vector<LightView>& views, bool preview, const VulkanDeviceInfo* device) {
   std::uint64_t total = 0, largest = 0, batch = 0;
   for (const LightView& v : views) {
@@ -172,15 +185,7 @@ std::uint64_t hostBytesNeeded(const std::vector<LightView>& views, bool preview,
 void checkHostMemory(const Scene& scene, const std::vector<LightView>& views, const BakeOptions& options,
                      const VulkanDeviceInfo* device) {
   std::uint64_t need = hostBytesNeeded(views, options.preview.has_value(), device);
-  if (options.evsmMoments) {
-    // The moment pass's inputs (a copy of every layer), and per EVSM layer its moments, their scratch and the
-    // copy the EXR writer interleaves (16 bytes a texel each).
-    for (const LightView& v : views) {
-      need += layerBytes(v);
-      const LightDesc& l = scene.desc().lights[std::size_t(v.lightIndex)];
-      if (l.shadow && l.shadow->filter == ShadowFilter::Evsm) need += layerBytes(v) / sizeof(float) * 48;
-    }
-  }
+  if (options.evsmMoments) need += evsmMomentBytes(scene.desc(), views);
   std::uint64_t texels = 0;
   for (const LightView& v : views) texels += layerBytes(v) / sizeof(float);
   checkMemoryNeed(need, memoryBudget(options.memoryBudget, tracingCommandThreads(options.threads)),
@@ -293,13 +298,19 @@ class ShardBaker {
   ShardBaker(const BakeOptions& options, const SceneDesc& desc, const BakeInputs& inputs, int shards)
       : options_(options), desc_(desc), inputs_(inputs), shards_(shards) {}
 
-  void bake(int k, const std::filesystem::path& part) {
+  // The scene's shadow views (the scene is loaded on first use, once).
+  const std::vector<LightView>& views() {
     if (!scene_) {
       scene_.emplace(Scene::load(SceneDesc(desc_)));
       views_ = scene_->lightViews();
       if (views_.empty()) throwBadInput(desc_.file.string() + ": lights: no light casts a shadow, nothing to bake");
       plan_ = planShards(views_, casterBoxes(*scene_), shards_);
     }
+    return views_;
+  }
+
+  void bake(int k, const std::filesystem::path& part) {
+    views();
     checkShardMemory(*scene_, views_, plan_, k, options_);
     if (!tracer_) {
       if (options_.backend == "cpu") {
@@ -451,7 +462,16 @@ void runShardedBake(const BakeOptions& options) {
   ShardBaker baker(options, desc, inputs, n);
   for (int k : stale) baker.bake(k, parts[std::size_t(k)]);
   std::vector<BakedView> views = mergeBakeParts(parts);
-  if (options.evsmMoments) addEvsmMoments(desc, Scene::load(SceneDesc(desc)).lightViews(), views);
+  if (options.evsmMoments) {
+    const std::vector<LightView>& lightViews = baker.views();
+    std::uint64_t merged = 0;
+    for (const BakedView& v : views) merged += v.texels.size() * sizeof(float);
+    checkMemoryNeed(merged + evsmMomentBytes(desc, lightViews),
+                    memoryBudget(options.memoryBudget, tracingCommandThreads(options.threads)),
+                    options.scene.string() + ": --evsm-moments: the merged layers and their moments need",
+                    "lower the EVSM lights' shadow.resolution, or bake without --evsm-moments");
+    addEvsmMoments(desc, lightViews, views);
+  }
   writeBakeOutputs(options.output, options.preview, views);
   std::printf("merged %d part%s into %s\n", n, n == 1 ? "" : "s", options.output.c_str());
   if (options.preview) std::printf("preview: %s\n", options.preview->c_str());
