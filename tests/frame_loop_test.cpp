@@ -98,8 +98,9 @@ Differences compareWithFresh(const Scene& scene, Tracer& freshTracer, const Fram
                     a[i].texels[first], b[i].texels[first]);
       }
     }
+  // (Empty arrays, such as the moments of a view without EVSM, have no data pointer to compare.)
   auto bytesDiffer = [](const auto& x, const auto& y) {
-    return x.size() != y.size() || std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) != 0;
+    return x.size() != y.size() || (!x.empty() && std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) != 0);
   };
   d.gbuffer = bytesDiffer(frame.gbuffer.texels, truth.gbuffer.texels);
   if (d.gbuffer && std::getenv("VOXSHADOW_FRAME_LOOP_DETAIL"))
