@@ -6,7 +6,9 @@
 #include <cstring>
 
 #include "deferred_lighting.spv.h"
+#include "deferred_lighting_variant.spv.h"
 #include "evsm_moments.spv.h"
+#include "lighting/lighting_variant.h"
 #include "lighting/shared/lighting_interface.h"
 #include "voxel/error.h"
 
@@ -15,8 +17,17 @@ namespace vs {
 struct VulkanLighting::Impl {
   std::shared_ptr<VulkanContext> owner;  // first member: the device outlives every resource below
   VulkanContext& context;
-  vk::ComputePipeline pipeline;
-  vk::UniqueShaderModule module;
+  vk::ComputePipeline pipeline;  // its `pipeline` unused: the variants below share its layouts
+  vk::UniqueShaderModule module;         // the general lighting shader
+  vk::UniqueShaderModule variantModule;  // the build its variants specialise, made with the first variant
+  // The lighting shader's variants made so far (lighting_variant.h), the latest last; the one of the current
+  // call. A frame loop whose lights keep their kinds and filters uses one.
+  std::vector<std::pair<LightingVariant, vk::UniquePipeline>> variants;
+  LightingVariant wantedVariant;
+  LightingVariant lastShape;  // the frame shape of the last call, asked for callsOfShape calls in a row
+  int callsOfShape = 0;
+  bool specialize = true;
+  int variantsCompiled = 0;
   // The moment pass: the same descriptor set, its own push block; made with the first EVSM work (a compile
   // that frames without EVSM do not pay for).
   vk::UniquePipelineLayout momentLayout;
@@ -40,7 +51,7 @@ struct VulkanLighting::Impl {
     pipeline.setLayout = vk::UniqueDescriptorSetLayout(dev, setLayout);
 
     module = context.createShaderModule(deferred_lighting, sizeof deferred_lighting);
-    makePipeline(module.get(), sizeof(gpu::ShadePush), pipeline.layout, pipeline.pipeline);
+    pipeline.layout = makeLayout(sizeof(gpu::ShadePush));
 
     VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::VS_LIGHTING_BINDING_COUNT};
     auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
@@ -67,7 +78,7 @@ struct VulkanLighting::Impl {
                    std::to_string(maxRange) + ") of " + context.info().name + "; render smaller or use --backend cpu");
     // The layer store is also where traced texels are copied on the device (VulkanTracer::traceInto).
     const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
-        (b == gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS ? VK_BUFFER_USAGE_TRANSFER_DST_BIT : VkBufferUsageFlags(0));
+        (b == gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS ? VkBufferUsageFlags(VK_BUFFER_USAGE_TRANSFER_DST_BIT) : VkBufferUsageFlags(0));
     buffers[b] = context.createHostBuffer(need, usage);
     return true;
   }
@@ -140,10 +151,8 @@ struct VulkanLighting::Impl {
             inputs.momentTexels};
   }
 
-  // A compute pipeline of `shader` over the pass's descriptor set with a push block of `pushBytes`.
-  void makePipeline(VkShaderModule shader, std::uint32_t pushBytes, vk::UniquePipelineLayout& layoutOut,
-                    vk::UniquePipeline& pipelineOut) {
-    VkDevice dev = context.device();
+  // A pipeline layout over the pass's descriptor set with a push block of `pushBytes`.
+  vk::UniquePipelineLayout makeLayout(std::uint32_t pushBytes) {
     VkDescriptorSetLayout setLayout = pipeline.setLayout.get();
     VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes};
     auto pl = vk::make<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
@@ -152,23 +161,70 @@ struct VulkanLighting::Impl {
     pl.pushConstantRangeCount = 1;
     pl.pPushConstantRanges = &range;
     VkPipelineLayout layout = VK_NULL_HANDLE;
-    vk::check(vkCreatePipelineLayout(dev, &pl, nullptr, &layout), "vkCreatePipelineLayout");
-    layoutOut = vk::UniquePipelineLayout(dev, layout);
+    vk::check(vkCreatePipelineLayout(context.device(), &pl, nullptr, &layout), "vkCreatePipelineLayout");
+    return vk::UniquePipelineLayout(context.device(), layout);
+  }
+
+  // A compute pipeline of `shader` with `layout`, its specialisation constants given (null: the defaults).
+  vk::UniquePipeline makePipeline(VkShaderModule shader, VkPipelineLayout layout,
+                                  const VkSpecializationInfo* constants = nullptr) {
     auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
     ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
     ci.stage.module = shader;
     ci.stage.pName = "main";
+    ci.stage.pSpecializationInfo = constants;
     ci.layout = layout;
     VkPipeline p = VK_NULL_HANDLE;
-    vk::check(vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &ci, nullptr, &p), "vkCreateComputePipelines");
-    pipelineOut = vk::UniquePipeline(dev, p);
+    vk::check(vkCreateComputePipelines(context.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p),
+              "vkCreateComputePipelines");
+    return vk::UniquePipeline(context.device(), p);
+  }
+
+  // At most this many variants are kept: a caller that keeps switching lights' filters recompiles, it does not
+  // grow without bound.
+  static constexpr std::size_t kKeptVariants = 8;
+
+  // The variant this call's lights and push block want (made on the first dispatch that shades with it): the
+  // frame shape's own once it repeated often enough or is already made, else the general one.
+  void chooseVariant(const ShadeInputs& inputs, const gpu::ShadePush& push) {
+    const LightingVariant shape = specialize ? LightingVariant::of(inputs.lights, push) : LightingVariant{};
+    callsOfShape = shape == lastShape ? callsOfShape + 1 : 1;
+    lastShape = shape;
+    const bool made = std::any_of(variants.begin(), variants.end(), [&](const auto& v) { return v.first == shape; });
+    wantedVariant = made || callsOfShape >= VulkanLighting::kCallsBeforeSpecializing ? shape : LightingVariant{};
+  }
+
+  // The pipeline of wantedVariant, compiled on its first use.
+  VkPipeline variantPipeline() {
+    auto it = std::find_if(variants.begin(), variants.end(), [&](const auto& v) { return v.first == wantedVariant; });
+    if (it == variants.end()) {
+      vk::UniquePipeline made;
+      if (wantedVariant == LightingVariant{}) {
+        made = makePipeline(module.get(), pipeline.layout.get());
+      } else {
+        if (!variantModule)
+          variantModule = context.createShaderModule(deferred_lighting_variant, sizeof deferred_lighting_variant);
+        const auto constants = wantedVariant.constants();
+        std::array<VkSpecializationMapEntry, gpu::VS_LIGHTING_SPEC_COUNT> entries{};
+        for (std::uint32_t i = 0; i < entries.size(); ++i)
+          entries[i] = {i, std::uint32_t(i * sizeof(std::int32_t)), sizeof(std::int32_t)};
+        VkSpecializationInfo info{std::uint32_t(entries.size()), entries.data(), sizeof constants, constants.data()};
+        made = makePipeline(variantModule.get(), pipeline.layout.get(), &info);
+      }
+      ++variantsCompiled;
+      if (variants.size() == kKeptVariants) variants.erase(variants.begin());
+      variants.emplace_back(wantedVariant, std::move(made));
+      it = variants.end() - 1;
+    }
+    return it->second.get();
   }
 
   void makeMomentPipeline() {
     if (momentPipeline) return;
     momentModule = context.createShaderModule(evsm_moments, sizeof evsm_moments);
-    makePipeline(momentModule.get(), sizeof(gpu::EvsmPush), momentLayout, momentPipeline);
+    momentLayout = makeLayout(sizeof(gpu::EvsmPush));
+    momentPipeline = makePipeline(momentModule.get(), momentLayout.get());
   }
 
   // Writes the moment pass's records (the store's buffers were sized by sizeFor); the pass itself is recorded
@@ -221,6 +277,7 @@ struct VulkanLighting::Impl {
     if (inputs.momentTexels > 0 && (!moments || moments->vertical != inputs.momentTexels))
       throwBadInput("lighting: a frame with EVSM layers needs the work of its whole moment store");
     writeMomentWork(moments, traffic);
+    chooseVariant(inputs, push);
     dispatch(push);
     ShadeOutput out;
     out.color.resize(pixels);
@@ -269,6 +326,7 @@ struct VulkanLighting::Impl {
     heldSizes.clear();
     writeRecords(inputs, traffic);
     writeMomentWork(changes.moments, traffic);
+    chooseVariant(inputs, push);
     auto* texels = static_cast<float*>(buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].mapped);
     for (const auto& [first, count] : changes.texelRanges) {
       std::memcpy(texels + first, inputs.shadowTexels.data() + first, count * sizeof(float));
@@ -337,6 +395,7 @@ struct VulkanLighting::Impl {
       shadedPixels += push.flags.y > 0 ? std::size_t(push.flags.y) : std::size_t(push.size.x) * std::size_t(push.size.y);
       ++dispatches;
     }
+    const VkPipeline shadePipeline = shade ? variantPipeline() : VK_NULL_HANDLE;
     const MomentWork* moments = momentWork;
     momentWork = nullptr;
     if (moments) {
@@ -352,7 +411,7 @@ struct VulkanLighting::Impl {
                            nullptr, 0, nullptr);
       if (moments) recordMoments(cmd, *moments);
       if (shade) {
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline.get());
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, shadePipeline);
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet, 0, nullptr);
         vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::ShadePush), &push);
         vkCmdDispatch(cmd, groupsX, groupsY, 1);
@@ -414,7 +473,11 @@ void VulkanLighting::readStore(std::span<float> out, LightingTraffic* traffic) c
   if (traffic) traffic->readBack += out.size() * sizeof(float);
 }
 
-VulkanLighting::VulkanLighting(std::shared_ptr<VulkanContext> context) : impl_(std::make_unique<Impl>(std::move(context))) {}
+VulkanLighting::VulkanLighting(std::shared_ptr<VulkanContext> context, bool specialize)
+    : impl_(std::make_unique<Impl>(std::move(context))) {
+  impl_->specialize = specialize;
+}
+int VulkanLighting::variantsCompiled() const { return impl_->variantsCompiled; }
 VulkanLighting::~VulkanLighting() = default;
 ShadeOutput VulkanLighting::shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                                   std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic,

@@ -50,8 +50,22 @@ struct ShadeChanges {
 
 class VulkanLighting {
  public:
-  // Creates the pipeline on `context`'s device, which it keeps alive.
-  explicit VulkanLighting(std::shared_ptr<VulkanContext> context);
+  // Prepares the pass on `context`'s device, which it keeps alive. The lighting shader has variants
+  // (lighting/lighting_variant.h): a general one that serves every frame, and one per frame shape (the kinds,
+  // filters and view counts of up to gpu::VS_LIGHTING_SPECIALIZED_LIGHTS lights, the debug and shadow modes)
+  // holding only the code those lights run, which a CPU device (llvmpipe) needs to skip the rest (1.6x faster
+  // on the demo frame on lavapipe). With `specialize`, a shape's variant is compiled once
+  // kCallsBeforeSpecializing calls in a row asked for it, and used from then on while it is among the last few
+  // made; every variant gives the general shader's bits.
+  explicit VulkanLighting(std::shared_ptr<VulkanContext> context, bool specialize = true);
+  // Lighting shader variants compiled so far, the general one included.
+  int variantsCompiled() const;
+
+  // A frame shape is specialised once this many calls in a row asked for it: a variant costs a compile (about
+  // two seconds on llvmpipe, more than it saves on one 720p frame), which pays back only over the frames of a
+  // loop that keeps its lights. Until then, and for shapes that change every few frames, the general shader
+  // shades.
+  static constexpr int kCallsBeforeSpecializing = 8;
   ~VulkanLighting();
 
   // The pass over one frame: the same inputs and results as shadeOnCpu. Buffers grow as frames need and are

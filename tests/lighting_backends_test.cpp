@@ -481,3 +481,106 @@ TEST(CliRender, WritesPngAndExrAndRefusesBadOptions) {
   std::ofstream(dir / "nocamera.json") << noCamera.dump();
   refused(test::quote(dir / "nocamera.json") + " -o " + test::quote(dir / "x.png") + " --backend cpu", "camera");
 }
+
+// The lighting shader's variants (lighting/lighting_variant.h): once a frame shape repeats, its specialised
+// pipeline shades it with exactly the bits of the general shader, for every light kind and filter but EVSM
+// (its variants run in the Evsm tests' frame loops), each debug mode and ray-traced shadows; a frame of more
+// lights than the variants specialise stays on the general shader; and the CPU pass agrees as in
+// VulkanMatchesTheCpuPass.
+TEST(LightingBackends, ShaderVariantsShadeExactlyAsTheGeneralShader) {
+  VulkanOptions options;
+  options.validation = true;
+  std::unique_ptr<Tracer> vulkan = makeVulkanTracer(options);  // no device: fails here, loudly
+  std::unique_ptr<Tracer> cpu = makeCpuTracer();
+  const Scene demo = smallDemoScene("lighting_variants");
+  const RenderOptions frameSize = smallFrame();
+
+  // The demo's lights (sun cascades with pcf5 and contact rays, a poisson16 spot, a pcf3 point light), the same
+  // kinds with the other filters, and nine lights, one more than the variants specialise.
+  auto withFilters = [&](std::initializer_list<ShadowFilter> filters, int copies) {
+    SceneDesc desc = demo.desc();
+    const std::vector<LightDesc> original = desc.lights;
+    desc.lights.clear();
+    for (int c = 0; c < copies; ++c)
+      for (const LightDesc& l : original) {
+        LightDesc copy = l;
+        copy.name += "_" + std::to_string(c);
+        desc.lights.push_back(copy);
+      }
+    std::size_t i = 0;
+    for (ShadowFilter f : filters) desc.lights[i++ % desc.lights.size()].shadow->filter = f;
+    return desc;
+  };
+  struct Case {
+    SceneDesc desc;
+    std::vector<int> modes;
+    bool specialised;
+  };
+  const std::vector<Case> cases = {
+      {demo.desc(), {gpu::VS_SHADE_LIT, gpu::VS_SHADE_DEBUG_CASCADES}, true},
+      {withFilters({ShadowFilter::Pcss, ShadowFilter::Hard, ShadowFilter::Pcss}, 1), {gpu::VS_SHADE_LIT}, true},
+      {withFilters({ShadowFilter::Hard, ShadowFilter::Pcf3, ShadowFilter::Pcf5, ShadowFilter::Poisson16,
+                    ShadowFilter::Pcss, ShadowFilter::Pcf3, ShadowFilter::Hard, ShadowFilter::Poisson16,
+                    ShadowFilter::Pcf5}, 3),
+       {gpu::VS_SHADE_LIT}, false},
+  };
+  VulkanLighting lighting(vulkan->vulkan()->sharedContext());
+  int expectedVariants = 0;
+  for (const Case& c : cases) {
+    const Scene scene = Scene::load(SceneDesc(c.desc));
+    cpu->setScene(scene.data());
+    FrameRenderer renderer(*cpu);
+    const RenderedFrame frame = renderer.render(scene, frameSize);
+    const std::vector<ShadowLayer> layers = renderer.layers();
+    for (bool raytraced : {false, true}) {
+      const ShadeInputs inputs = makeShadeInputs(scene.desc(), frame.views, layers, raytraced);
+      // Visibility answers of every kind: rays clear and blocked in a fixed pattern.
+      std::vector<std::uint32_t> visibility(frame.gbuffer.texels.size() * inputs.lights.size());
+      for (std::size_t i = 0; i < visibility.size(); ++i) visibility[i] = (i * 2654435761u >> 7) & 1u;
+      for (int mode : raytraced ? std::vector<int>{gpu::VS_SHADE_LIT} : c.modes) {
+        const std::string what = std::to_string(inputs.lights.size()) + " lights, mode " + std::to_string(mode) +
+                                 (raytraced ? ", ray-traced" : "");
+        const gpu::ShadePush push = makeShadePush(scene.desc(), frame.width, frame.height, mode, raytraced);
+        // The first calls of a shape run the general shader, the kCallsBeforeSpecializing-th its own variant.
+        const ShadeOutput general = lighting.shade(inputs, push, frame.gbuffer, visibility);
+        for (int call = 2; call < VulkanLighting::kCallsBeforeSpecializing; ++call)
+          EXPECT_EQ(0, std::memcmp(lighting.shade(inputs, push, frame.gbuffer, visibility).color.data(),
+                                   general.color.data(), general.color.size() * sizeof(glm::vec4))) << what;
+        const int before = lighting.variantsCompiled();
+        const ShadeOutput special = lighting.shade(inputs, push, frame.gbuffer, visibility);
+        expectedVariants = std::max(expectedVariants, 1) + (c.specialised ? 1 : 0);
+        EXPECT_EQ(lighting.variantsCompiled(), expectedVariants) << what;
+        EXPECT_EQ(lighting.variantsCompiled() - before, c.specialised ? 1 : 0) << what;
+        ASSERT_EQ(special.color.size(), general.color.size());
+        EXPECT_EQ(0, std::memcmp(special.color.data(), general.color.data(), general.color.size() * sizeof(glm::vec4)))
+            << what;
+        EXPECT_EQ(special.shadowTerms, general.shadowTerms) << what;
+
+        const ShadeOutput host = shadeOnCpu(inputs, push, frame.gbuffer, visibility);
+        double worst = 0.0;
+        std::size_t termsDiffer = 0;
+        for (std::size_t i = 0; i < host.color.size(); ++i)
+          for (int k = 0; k < 4; ++k)
+            worst = std::max(worst, double(std::abs(special.color[i][k] - host.color[i][k])) /
+                                        std::max(1.0f, std::abs(host.color[i][k])));
+        for (std::size_t i = 0; i < host.shadowTerms.size(); ++i) termsDiffer += special.shadowTerms[i] != host.shadowTerms[i];
+        EXPECT_LE(worst, 1.0 / 255.0) << what;
+        EXPECT_LE(termsDiffer, host.shadowTerms.size() / 1000) << what;
+        // Shadowed and lit receivers both occur, so the filters' code ran.
+        EXPECT_GT(std::count(special.shadowTerms.begin(), special.shadowTerms.end(), 0.0f), 100) << what;
+        EXPECT_GT(std::count(special.shadowTerms.begin(), special.shadowTerms.end(), 1.0f), 100) << what;
+      }
+    }
+  }
+  // A lighting pass that does not specialise keeps to its general shader.
+  VulkanLighting plain(vulkan->vulkan()->sharedContext(), false);
+  const Scene scene = Scene::load(SceneDesc(cases[0].desc));
+  cpu->setScene(scene.data());
+  FrameRenderer renderer(*cpu);
+  const RenderedFrame frame = renderer.render(scene, frameSize);
+  const ShadeInputs inputs = makeShadeInputs(scene.desc(), frame.views, renderer.layers(), false);
+  const gpu::ShadePush push = makeShadePush(scene.desc(), frame.width, frame.height, gpu::VS_SHADE_LIT, false);
+  for (int i = 0; i <= VulkanLighting::kCallsBeforeSpecializing; ++i) plain.shade(inputs, push, frame.gbuffer, {});
+  EXPECT_EQ(plain.variantsCompiled(), 1);
+  EXPECT_TRUE(vulkan->vulkan()->validationMessages().empty());
+}

@@ -35,6 +35,17 @@ const uint VS_LIGHTING_BINDING_MOMENTS_NEGATIVE = 13u;  // vec2 (n, n^2) per mom
 const uint VS_LIGHTING_BINDING_EVSM_SCRATCH_NEGATIVE = 14u;  // vec2: the horizontal pass's sums, negative warp
 const uint VS_LIGHTING_BINDING_COUNT = 15u;
 
+// Specialisation constants of the lighting shader (constant_id values; lighting/lighting_variant.h makes them):
+// the frame's light count, debug mode and ray-traced flag, then per light of the first
+// VS_LIGHTING_SPECIALIZED_LIGHTS its kind (VS_LIGHT_*), filter (VS_FILTER_*) and view count, so that a variant
+// holds only the code its lights run. -1 (each default): not specialised, read from the records.
+const uint VS_LIGHTING_SPECIALIZED_LIGHTS = 8u;
+const uint VS_LIGHTING_SPEC_LIGHT_COUNT = 0u;
+const uint VS_LIGHTING_SPEC_MODE = 1u;
+const uint VS_LIGHTING_SPEC_RAYTRACED = 2u;
+const uint VS_LIGHTING_SPEC_FIRST_LIGHT = 3u;  // light k: kind at 3 + 3k, filter at 4 + 3k, view count at 5 + 3k
+const uint VS_LIGHTING_SPEC_COUNT = 3u + 3u * VS_LIGHTING_SPECIALIZED_LIGHTS;
+
 // The moment pass: 64 invocations a workgroup, over a flat index of its jobs' texels.
 const uint VS_EVSM_GROUP_SIZE = 64u;
 
