@@ -17,13 +17,13 @@ namespace vs {
 struct VulkanLighting::Impl {
   std::shared_ptr<VulkanContext> owner;  // first member: the device outlives every resource below
   VulkanContext& context;
-  vk::ComputePipeline pipeline;  // its `pipeline` unused: the variants below share its layouts
+  vk::ComputePipeline pipeline;          // the general lighting shader; its layouts serve the variants too
   vk::UniqueShaderModule module;         // the general lighting shader
   vk::UniqueShaderModule variantModule;  // the build its variants specialise, made with the first variant
-  // The lighting shader's variants made so far (lighting_variant.h), the latest last; the one of the current
-  // call. A frame loop whose lights keep their kinds and filters uses one.
+  // The specialised variants (lighting_variant.h), the least recently used first. A frame loop whose lights
+  // keep their kinds and filters uses one.
   std::vector<std::pair<LightingVariant, vk::UniquePipeline>> variants;
-  LightingVariant wantedVariant;
+  LightingVariant wantedVariant;  // this call's: LightingVariant{} is the general shader
   LightingVariant lastShape;  // the frame shape of the last call, asked for callsOfShape calls in a row
   int callsOfShape = 0;
   bool specialize = true;
@@ -52,6 +52,8 @@ struct VulkanLighting::Impl {
 
     module = context.createShaderModule(deferred_lighting, sizeof deferred_lighting);
     pipeline.layout = makeLayout(sizeof(gpu::ShadePush));
+    pipeline.pipeline = makePipeline(module.get(), pipeline.layout.get());
+    variantsCompiled = 1;
 
     VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::VS_LIGHTING_BINDING_COUNT};
     auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
@@ -181,8 +183,8 @@ struct VulkanLighting::Impl {
     return vk::UniquePipeline(context.device(), p);
   }
 
-  // At most this many variants are kept: a caller that keeps switching lights' filters recompiles, it does not
-  // grow without bound.
+  // At most this many specialised variants are kept: a caller that keeps switching lights' filters recompiles,
+  // it does not grow without bound.
   static constexpr std::size_t kKeptVariants = 8;
 
   // The variant this call's lights and push block want (made on the first dispatch that shades with it): the
@@ -195,29 +197,27 @@ struct VulkanLighting::Impl {
     wantedVariant = made || callsOfShape >= VulkanLighting::kCallsBeforeSpecializing ? shape : LightingVariant{};
   }
 
-  // The pipeline of wantedVariant, compiled on its first use.
+  // The pipeline of wantedVariant, a specialised one compiled on its first use and moved to the back of the
+  // list (most recently used) on each.
   VkPipeline variantPipeline() {
+    if (wantedVariant == LightingVariant{}) return pipeline.pipeline.get();
     auto it = std::find_if(variants.begin(), variants.end(), [&](const auto& v) { return v.first == wantedVariant; });
-    if (it == variants.end()) {
-      vk::UniquePipeline made;
-      if (wantedVariant == LightingVariant{}) {
-        made = makePipeline(module.get(), pipeline.layout.get());
-      } else {
-        if (!variantModule)
-          variantModule = context.createShaderModule(deferred_lighting_variant, sizeof deferred_lighting_variant);
-        const auto constants = wantedVariant.constants();
-        std::array<VkSpecializationMapEntry, gpu::VS_LIGHTING_SPEC_COUNT> entries{};
-        for (std::uint32_t i = 0; i < entries.size(); ++i)
-          entries[i] = {i, std::uint32_t(i * sizeof(std::int32_t)), sizeof(std::int32_t)};
-        VkSpecializationInfo info{std::uint32_t(entries.size()), entries.data(), sizeof constants, constants.data()};
-        made = makePipeline(variantModule.get(), pipeline.layout.get(), &info);
-      }
-      ++variantsCompiled;
-      if (variants.size() == kKeptVariants) variants.erase(variants.begin());
-      variants.emplace_back(wantedVariant, std::move(made));
-      it = variants.end() - 1;
+    if (it != variants.end()) {
+      std::rotate(it, it + 1, variants.end());
+      return variants.back().second.get();
     }
-    return it->second.get();
+    if (!variantModule)
+      variantModule = context.createShaderModule(deferred_lighting_variant, sizeof deferred_lighting_variant);
+    const auto constants = wantedVariant.constants();
+    std::array<VkSpecializationMapEntry, gpu::VS_LIGHTING_SPEC_COUNT> entries{};
+    for (std::uint32_t i = 0; i < entries.size(); ++i)
+      entries[i] = {i, std::uint32_t(i * sizeof(std::int32_t)), sizeof(std::int32_t)};
+    VkSpecializationInfo info{std::uint32_t(entries.size()), entries.data(), sizeof constants, constants.data()};
+    vk::UniquePipeline made = makePipeline(variantModule.get(), pipeline.layout.get(), &info);
+    ++variantsCompiled;
+    if (variants.size() == kKeptVariants) variants.erase(variants.begin());
+    variants.emplace_back(wantedVariant, std::move(made));
+    return variants.back().second.get();
   }
 
   void makeMomentPipeline() {

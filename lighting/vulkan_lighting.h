@@ -55,8 +55,8 @@ class VulkanLighting {
   // filters and view counts of up to gpu::VS_LIGHTING_SPECIALIZED_LIGHTS lights, the debug and shadow modes)
   // holding only the code those lights run, which a CPU device (llvmpipe) needs to skip the rest (1.6x faster
   // on the demo frame on lavapipe). With `specialize`, a shape's variant is compiled once
-  // kCallsBeforeSpecializing calls in a row asked for it, and used from then on while it is among the last few
-  // made; every variant gives the general shader's bits.
+  // kCallsBeforeSpecializing calls in a row asked for it, and used from then on while it is among the 8 most
+  // recently used; every variant gives the general shader's bits. The general shader is compiled here.
   explicit VulkanLighting(std::shared_ptr<VulkanContext> context, bool specialize = true);
   // Lighting shader variants compiled so far, the general one included.
   int variantsCompiled() const;
