@@ -168,12 +168,20 @@ void main() {
     return;
   }
   if (VS_RAY_KIND == VS_RAY_VISIBILITY) {
+    // Invocations run light by light (answers are stored receiver by receiver): the lanes of a group trace one
+    // light's rays from neighbouring receivers, so a light without rays (no contact length) does not idle lanes
+    // beside another's walks, and a device that runs every branch any lane takes (llvmpipe) does not walk for
+    // the lanes of lights that have none.
     uint lightCount = visibility.counts.x;
-    uint l = 2u * (index % lightCount);
-    uint r = 2u * (lightCount + index / lightCount);
+    uint receiverCount = visibility.counts.y;
+    uint lightIndex = index / receiverCount;
+    uint receiverIndex = index % receiverCount;
+    uint l = 2u * lightIndex;
+    uint r = 2u * (lightCount + receiverIndex);
     VisibilityLight light = VisibilityLight(visibilityEntries[l], visibilityEntries[l + 1u]);
     VisibilityReceiver receiver = VisibilityReceiver(visibilityEntries[r], visibilityEntries[r + 1u]);
-    occluded[index] = vsAnyHit(vsTraceRayToWorld(vsVisibilityRay(visibility, light, receiver))) ? 1u : 0u;
+    occluded[receiverIndex * lightCount + lightIndex] =
+        vsAnyHit(vsTraceRayToWorld(vsVisibilityRay(visibility, light, receiver))) ? 1u : 0u;
     return;
   }
   WorldRay ray = vsTraceRayToWorld(rays[index]);
