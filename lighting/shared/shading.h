@@ -68,8 +68,13 @@ struct VsReceiver {
   vec3 rel;     // a point of the receiver's plane, biased, relative to the view's eye (eye + eyeLow)
   vec3 normal;  // the plane's unit normal (the face normal)
   float depth;  // the biased receiver's own depth, in the layer's encoding
-  int plane;    // 1: compare each texel against the plane (vsReceiverPlaneDepth); 0: against depth
+  int plane;    // VS_RECEIVER_* (shading_layout.h): what each texel is compared against
+  // VS_RECEIVER_PLANE_AFFINE: the plane's depth at texel `base`'s ray (x) and its change per texel along x (y)
+  // and y (z).
+  vec3 slope;
+  ivec2 base;
 };
+
 
 // m * p, summed column by column in a fixed order (as the trace kernels' vsMulPoint), so that both compilers
 // round alike.
@@ -103,6 +108,22 @@ float vsReceiverPlaneDepth(VS_IN(ShadeView) view, ivec2 t, vec3 rel, vec3 n) {
   return s;
 }
 
+// An orthographic view's texel rays are parallel (direction clipToEye's z column) and start on its near plane
+// at points affine in the texel, so the depth at which they meet a plane is affine in the texel too: the depth
+// at texel `base` (x, by vsReceiverPlaneDepth's arithmetic) and its change per texel along x (y) and y (z). A
+// filter kernel then costs two products a tap instead of two unprojections; the results match the per-texel
+// form to rounding, far inside the biases (the kernel's taps lie within VS_PCSS_MAX_RADIUS of base, so the
+// steps add no error that grows with the layer's size).
+vec3 vsPlaneSlope(VS_IN(ShadeView) view, ivec2 base, vec3 rel, vec3 n) {
+  mat4 m = view.clipToEye;
+  VS_PRECISE vec3 d = vec3(m[2]) / m[3].w;
+  VS_PRECISE float along = min(dot(n, d), -VS_MIN_SLOPE_COSINE * length(d));
+  VS_PRECISE float step = 2.0f / float(view.info.y);
+  VS_PRECISE float perX = -(dot(n, vec3(m[0])) / m[3].w) * step / along;
+  VS_PRECISE float perY = -(dot(n, vec3(m[1])) / m[3].w) * step / along;
+  return vec3(vsReceiverPlaneDepth(view, base, rel, n), perX, perY);
+}
+
 // The stored depth of texel t of the view's window, clamped to the window. A cascade's layer is a ring over
 // its world-fixed grid (DESIGN.md §11): window texel t lives at (t + ring offset) mod w, w a power of two.
 float vsStoredDepth(VS_IN(ShadeView) view, ivec2 t) {
@@ -118,7 +139,11 @@ float vsStoredDepth(VS_IN(ShadeView) view, ivec2 t) {
 // shadowing the receiver. On an unbroken face that texel's hit lies on the plane, behind the receiver's depth:
 // lit either way.
 float vsReceiverDepth(VS_IN(ShadeView) view, ivec2 t, VS_IN(VsReceiver) r) {
-  return r.plane != 0 ? min(vsReceiverPlaneDepth(view, t, r.rel, r.normal), r.depth) : r.depth;
+  if (r.plane == VS_RECEIVER_PLANE_AFFINE) {
+    VS_PRECISE float s = r.slope.x + float(t.x - r.base.x) * r.slope.y + float(t.y - r.base.y) * r.slope.z;
+    return min(s, r.depth);
+  }
+  return r.plane == VS_RECEIVER_PLANE ? min(vsReceiverPlaneDepth(view, t, r.rel, r.normal), r.depth) : r.depth;
 }
 
 // 1 where the receiver is in front of (or at) the stored depth of texel t.
@@ -224,15 +249,18 @@ float vsViewShadow(VS_IN(ShadeLight) light, int viewIndex, vec3 p, vec3 n, vec3 
   ShadeView view = shadeViews[viewIndex];
   vec3 biased = vsBiasedReceiver(light, view, p, n, toLight, nDotL, lightDistance);
   VsReceiver r;
-  r.plane = view.trace.x == VS_DEPTH_POINT_ENTRY ? 1 : 0;
+  r.plane = view.trace.x != VS_DEPTH_POINT_ENTRY ? VS_RECEIVER_DEPTH
+      : view.info.z == VS_ENCODING_NDC_DEPTH ? VS_RECEIVER_PLANE_AFFINE : VS_RECEIVER_PLANE;
   r.normal = n;
   r.rel = (biased - vec3(view.eye)) - vec3(view.eyeLow);
   vec2 texel;
   if (!vsProjectToView(view, biased, texel, r.depth)) return -1.0f;
   float depth = r.depth;
-  if (r.plane != 0 && !vsProjectToView(view, p, texel, depth)) return -1.0f;
+  if (r.plane != VS_RECEIVER_DEPTH && !vsProjectToView(view, p, texel, depth)) return -1.0f;
   int kind = light.info.y;
   if (lateral && !vsInsideView(view, texel, depth, vsFilterReach(kind))) return -1.0f;
+  r.base = ivec2(floor(texel));
+  r.slope = r.plane == VS_RECEIVER_PLANE_AFFINE ? vsPlaneSlope(view, r.base, r.rel, n) : vec3(0.0f);
   float texelWorld = vsTexelWorld(view, lightDistance);
   if (kind == VS_FILTER_HARD) return vsCompare(view, ivec2(floor(texel)), r);
   if (kind == VS_FILTER_PCF3) return vsFilterBox(view, texel, r, 1);

@@ -22,6 +22,14 @@ const int VS_FILTER_POISSON16 = 3;
 const int VS_FILTER_PCSS = 4;
 const int VS_FILTER_EVSM = 5;  // exponential variance shadow maps: the layer's moments (lighting/shared/evsm.h)
 
+// How the lighting pass compares a receiver with a shadow texel (shading.h, VsReceiver.plane): against the
+// receiver's own depth (layers of voxel-centre depths); against its plane at the texel's own ray, rebuilt per
+// texel (perspective views: their rays fan out); against its plane through the affine form that an
+// orthographic view's parallel rays give (vsPlaneSlope).
+const int VS_RECEIVER_DEPTH = 0;
+const int VS_RECEIVER_PLANE = 1;
+const int VS_RECEIVER_PLANE_AFFINE = 2;
+
 // ShadePush.mode: what the pass writes.
 const int VS_SHADE_LIT = 0;             // ambient + lights, linear HDR
 const int VS_SHADE_DEBUG_CASCADES = 1;  // the lit image tinted by the first directional light's cascade
