@@ -24,6 +24,7 @@ struct CpuShading {
   float* shadowTerms;
   const vec4* momentTexels;
   vec4 vsLoadMoments(int i) const { return momentTexels[i]; }
+  ShadeView vsLoadView(int i) const { return shadeViews[i]; }
 #include "lighting/shared/shading.h"
 };
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <mutex>
 
 #include "deferred_lighting.spv.h"
 #include "deferred_lighting_variant.spv.h"
@@ -14,66 +15,175 @@
 
 namespace vs {
 
-struct VulkanLighting::Impl {
-  std::shared_ptr<VulkanContext> owner;  // first member: the device outlives every resource below
+namespace {
+
+VkDescriptorType lightingDescriptorType(std::uint32_t b) {
+  return b == gpu::VS_LIGHTING_BINDING_VIEWS ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+}
+
+// The lighting pass's pipelines on one device, compiled once and shared by every VulkanLighting on it
+// (VulkanContext::shared): a renderer made for one frame, or a second renderer, compiles nothing again, where
+// one compile of the general shader takes a few hundred milliseconds on llvmpipe.
+struct LightingPipelines {
+  std::shared_ptr<VulkanContext> owner;  // first member: the device outlives every object below
   VulkanContext& context;
-  vk::ComputePipeline pipeline;          // the general lighting shader; its layouts serve the variants too
+  std::mutex mutex;  // guards the variants and the moment pipeline, made by whichever pass asks first
+  vk::ComputePipeline general;           // the general lighting shader; its layouts serve the variants too
+  std::shared_ptr<vk::UniquePipeline> generalPipeline;
   vk::UniqueShaderModule module;         // the general lighting shader
   vk::UniqueShaderModule variantModule;  // the build its variants specialise, made with the first variant
   // The specialised variants (lighting_variant.h), the least recently used first. A frame loop whose lights
-  // keep their kinds and filters uses one.
-  std::vector<std::pair<LightingVariant, vk::UniquePipeline>> variants;
-  LightingVariant wantedVariant;  // this call's: LightingVariant{} is the general shader
-  LightingVariant lastShape;  // the frame shape of the last call, asked for callsOfShape calls in a row
-  int callsOfShape = 0;
-  bool specialize = true;
-  int variantsCompiled = 0;
-  // The moment pass: the same descriptor set, its own push block; made with the first EVSM work (a compile
-  // that frames without EVSM do not pay for).
+  // keep their kinds and filters uses one. Held by shared pointer: a dispatch keeps the one it records.
+  std::vector<std::pair<LightingVariant, std::shared_ptr<vk::UniquePipeline>>> variants;
+  int compiled = 0;
+  // The moment pass: the same descriptor set layout, its own push block; made with the first EVSM work (a
+  // compile that frames without EVSM do not pay for).
   vk::UniquePipelineLayout momentLayout;
   vk::UniquePipeline momentPipeline;
   vk::UniqueShaderModule momentModule;
-  vk::UniqueDescriptorPool descriptorPool;
-  VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
-  // Host-visible buffers in binding order; each grows to the largest frame so far.
-  std::array<vk::Buffer, gpu::VS_LIGHTING_BINDING_COUNT> buffers;
 
-  explicit Impl(std::shared_ptr<VulkanContext> c) : owner(std::move(c)), context(*owner) {
+  // At most this many specialised variants are kept: a caller that keeps switching lights' filters recompiles,
+  // it does not grow without bound.
+  static constexpr std::size_t kKeptVariants = 8;
+
+  explicit LightingPipelines(std::shared_ptr<VulkanContext> c) : owner(std::move(c)), context(*owner) {
     VkDevice dev = context.device();
     std::array<VkDescriptorSetLayoutBinding, gpu::VS_LIGHTING_BINDING_COUNT> bindings{};
     for (std::uint32_t b = 0; b < gpu::VS_LIGHTING_BINDING_COUNT; ++b)
-      bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+      bindings[b] = {b, lightingDescriptorType(b), 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
     auto dl = vk::make<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
     dl.bindingCount = std::uint32_t(bindings.size());
     dl.pBindings = bindings.data();
     VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
     vk::check(vkCreateDescriptorSetLayout(dev, &dl, nullptr, &setLayout), "vkCreateDescriptorSetLayout");
-    pipeline.setLayout = vk::UniqueDescriptorSetLayout(dev, setLayout);
-
+    general.setLayout = vk::UniqueDescriptorSetLayout(dev, setLayout);
     module = context.createShaderModule(deferred_lighting, sizeof deferred_lighting);
-    pipeline.layout = makeLayout(sizeof(gpu::ShadePush));
-    pipeline.pipeline = makePipeline(module.get(), pipeline.layout.get());
-    variantsCompiled = 1;
+    general.layout = makeLayout(sizeof(gpu::ShadePush));
+    generalPipeline = std::make_shared<vk::UniquePipeline>(makePipeline(module.get(), general.layout.get()));
+    compiled = 1;
+  }
 
-    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::VS_LIGHTING_BINDING_COUNT};
+  // A pipeline layout over the pass's descriptor set with a push block of `pushBytes`.
+  vk::UniquePipelineLayout makeLayout(std::uint32_t pushBytes) {
+    VkDescriptorSetLayout setLayout = general.setLayout.get();
+    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes};
+    auto pl = vk::make<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
+    pl.setLayoutCount = 1;
+    pl.pSetLayouts = &setLayout;
+    pl.pushConstantRangeCount = 1;
+    pl.pPushConstantRanges = &range;
+    VkPipelineLayout layout = VK_NULL_HANDLE;
+    vk::check(vkCreatePipelineLayout(context.device(), &pl, nullptr, &layout), "vkCreatePipelineLayout");
+    return vk::UniquePipelineLayout(context.device(), layout);
+  }
+
+  // A compute pipeline of `shader` with `layout`, its specialisation constants given (null: the defaults).
+  vk::UniquePipeline makePipeline(VkShaderModule shader, VkPipelineLayout layout,
+                                  const VkSpecializationInfo* constants = nullptr) {
+    auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
+    ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
+    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    ci.stage.module = shader;
+    ci.stage.pName = "main";
+    ci.stage.pSpecializationInfo = constants;
+    ci.layout = layout;
+    VkPipeline p = VK_NULL_HANDLE;
+    vk::check(vkCreateComputePipelines(context.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p),
+              "vkCreateComputePipelines");
+    return vk::UniquePipeline(context.device(), p);
+  }
+
+  bool made(const LightingVariant& shape) {
+    std::lock_guard lock(mutex);
+    return std::any_of(variants.begin(), variants.end(), [&](const auto& v) { return v.first == shape; });
+  }
+
+  // The pipeline of `variant` (LightingVariant{}: the general shader), a specialised one compiled on its first
+  // use and moved to the back of the list (most recently used) on each.
+  std::shared_ptr<vk::UniquePipeline> pipelineOf(const LightingVariant& variant) {
+    if (variant == LightingVariant{}) return generalPipeline;
+    std::lock_guard lock(mutex);
+    auto it = std::find_if(variants.begin(), variants.end(), [&](const auto& v) { return v.first == variant; });
+    if (it != variants.end()) {
+      std::rotate(it, it + 1, variants.end());
+      return variants.back().second;
+    }
+    if (!variantModule)
+      variantModule = context.createShaderModule(deferred_lighting_variant, sizeof deferred_lighting_variant);
+    const auto constants = variant.constants();
+    std::array<VkSpecializationMapEntry, gpu::VS_LIGHTING_SPEC_COUNT> entries{};
+    for (std::uint32_t i = 0; i < entries.size(); ++i)
+      entries[i] = {i, std::uint32_t(i * sizeof(std::int32_t)), sizeof(std::int32_t)};
+    VkSpecializationInfo info{std::uint32_t(entries.size()), entries.data(), sizeof constants, constants.data()};
+    auto made = std::make_shared<vk::UniquePipeline>(makePipeline(variantModule.get(), general.layout.get(), &info));
+    ++compiled;
+    if (variants.size() == kKeptVariants) variants.erase(variants.begin());
+    variants.emplace_back(variant, std::move(made));
+    return variants.back().second;
+  }
+
+  void makeMomentPipeline() {
+    std::lock_guard lock(mutex);
+    if (momentPipeline) return;
+    momentModule = context.createShaderModule(evsm_moments, sizeof evsm_moments);
+    momentLayout = makeLayout(sizeof(gpu::EvsmPush));
+    momentPipeline = makePipeline(momentModule.get(), momentLayout.get());
+  }
+};
+
+}  // namespace
+
+struct VulkanLighting::Impl {
+  std::shared_ptr<VulkanContext> owner;  // first member: the device outlives every resource below
+  VulkanContext& context;
+  std::shared_ptr<LightingPipelines> pipelines;  // this device's, shared with every pass on it
+  LightingVariant wantedVariant;  // this call's: LightingVariant{} is the general shader
+  LightingVariant lastShape;  // the frame shape of the last call, asked for callsOfShape calls in a row
+  int callsOfShape = 0;
+  bool specialize = true;
+  vk::UniqueDescriptorPool descriptorPool;
+  VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
+  // Host-visible buffers in binding order; each grows to the largest frame so far.
+  std::array<vk::Buffer, gpu::VS_LIGHTING_BINDING_COUNT> buffers;
+  // The view records' buffer as the shader reads it (VS_LIGHTING_BINDING_VIEWS), made again with the buffer.
+  vk::UniqueBufferView viewTexels;
+
+  explicit Impl(std::shared_ptr<VulkanContext> c) : owner(std::move(c)), context(*owner) {
+    pipelines = std::static_pointer_cast<LightingPipelines>(context.shared("lighting pipelines", [&] {
+      return std::static_pointer_cast<void>(std::make_shared<LightingPipelines>(owner));
+    }));
+    VkDevice dev = context.device();
+    const std::array<VkDescriptorPoolSize, 2> sizes{{{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::VS_LIGHTING_BINDING_COUNT - 1},
+                                                     {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1}}};
     auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
     dp.maxSets = 1;
-    dp.poolSizeCount = 1;
-    dp.pPoolSizes = &size;
+    dp.poolSizeCount = std::uint32_t(sizes.size());
+    dp.pPoolSizes = sizes.data();
     VkDescriptorPool pool = VK_NULL_HANDLE;
     vk::check(vkCreateDescriptorPool(dev, &dp, nullptr, &pool), "vkCreateDescriptorPool");
     descriptorPool = vk::UniqueDescriptorPool(dev, pool);
+    VkDescriptorSetLayout setLayout = pipelines->general.setLayout.get();
     auto ai = vk::make<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
     ai.descriptorPool = pool;
     ai.descriptorSetCount = 1;
     ai.pSetLayouts = &setLayout;
     vk::check(vkAllocateDescriptorSets(dev, &ai, &descriptorSet), "vkAllocateDescriptorSets");
   }
-
   // Binding b holds at least `bytes` (never 0: an empty array binds a 16-byte buffer); true when it was replaced.
   bool reserve(std::uint32_t b, std::size_t bytes) {
     const VkDeviceSize need = std::max<VkDeviceSize>(16, VkDeviceSize(bytes));
     if (buffers[b].buffer && buffers[b].size >= need) return false;
+    if (b == gpu::VS_LIGHTING_BINDING_VIEWS) {
+      const std::uint64_t texels = need / 16;
+      if (texels > context.info().maxTexelBufferElements)
+        throwRuntime("lighting: " + std::to_string(texels / gpu::VS_SHADE_VIEW_TEXELS) + " shadow views need " +
+                     std::to_string(texels) + " texels of a texel buffer, more than maxTexelBufferElements (" +
+                     std::to_string(context.info().maxTexelBufferElements) + ") of " + context.info().name +
+                     "; use fewer shadowed lights or --backend cpu");
+      buffers[b] = context.createHostBuffer(need, VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT);
+      viewTexels = context.createTexelView(buffers[b], VK_FORMAT_R32G32B32A32_UINT);
+      return true;
+    }
     const VkDeviceSize maxRange = context.info().maxStorageBufferRange;
     if (need > maxRange)
       throwRuntime("lighting: a " + std::to_string(need) + "-byte buffer exceeds maxStorageBufferRange (" +
@@ -93,14 +203,16 @@ struct VulkanLighting::Impl {
   void writeDescriptors() {
     std::array<VkDescriptorBufferInfo, gpu::VS_LIGHTING_BINDING_COUNT> infos{};
     std::array<VkWriteDescriptorSet, gpu::VS_LIGHTING_BINDING_COUNT> writes{};
+    const VkBufferView viewHandle = viewTexels.get();
     for (std::uint32_t b = 0; b < gpu::VS_LIGHTING_BINDING_COUNT; ++b) {
       infos[b] = {buffers[b].get(), 0, VK_WHOLE_SIZE};
       writes[b] = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
       writes[b].dstSet = descriptorSet;
       writes[b].dstBinding = b;
       writes[b].descriptorCount = 1;
-      writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-      writes[b].pBufferInfo = &infos[b];
+      writes[b].descriptorType = lightingDescriptorType(b);
+      if (b == gpu::VS_LIGHTING_BINDING_VIEWS) writes[b].pTexelBufferView = &viewHandle;
+      else writes[b].pBufferInfo = &infos[b];
     }
     vkUpdateDescriptorSets(context.device(), std::uint32_t(writes.size()), writes.data(), 0, nullptr);
   }
@@ -153,78 +265,15 @@ struct VulkanLighting::Impl {
             inputs.momentTexels};
   }
 
-  // A pipeline layout over the pass's descriptor set with a push block of `pushBytes`.
-  vk::UniquePipelineLayout makeLayout(std::uint32_t pushBytes) {
-    VkDescriptorSetLayout setLayout = pipeline.setLayout.get();
-    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes};
-    auto pl = vk::make<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
-    pl.setLayoutCount = 1;
-    pl.pSetLayouts = &setLayout;
-    pl.pushConstantRangeCount = 1;
-    pl.pPushConstantRanges = &range;
-    VkPipelineLayout layout = VK_NULL_HANDLE;
-    vk::check(vkCreatePipelineLayout(context.device(), &pl, nullptr, &layout), "vkCreatePipelineLayout");
-    return vk::UniquePipelineLayout(context.device(), layout);
-  }
-
-  // A compute pipeline of `shader` with `layout`, its specialisation constants given (null: the defaults).
-  vk::UniquePipeline makePipeline(VkShaderModule shader, VkPipelineLayout layout,
-                                  const VkSpecializationInfo* constants = nullptr) {
-    auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
-    ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
-    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    ci.stage.module = shader;
-    ci.stage.pName = "main";
-    ci.stage.pSpecializationInfo = constants;
-    ci.layout = layout;
-    VkPipeline p = VK_NULL_HANDLE;
-    vk::check(vkCreateComputePipelines(context.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p),
-              "vkCreateComputePipelines");
-    return vk::UniquePipeline(context.device(), p);
-  }
-
-  // At most this many specialised variants are kept: a caller that keeps switching lights' filters recompiles,
-  // it does not grow without bound.
-  static constexpr std::size_t kKeptVariants = 8;
-
   // The variant this call's lights and push block want (made on the first dispatch that shades with it): the
-  // frame shape's own once it repeated often enough or is already made, else the general one.
+  // frame shape's own once it repeated often enough or is already made (by any pass on the device), else the
+  // general one.
   void chooseVariant(const ShadeInputs& inputs, const gpu::ShadePush& push) {
     const LightingVariant shape = specialize ? LightingVariant::of(inputs.lights, push) : LightingVariant{};
     callsOfShape = shape == lastShape ? callsOfShape + 1 : 1;
     lastShape = shape;
-    const bool made = std::any_of(variants.begin(), variants.end(), [&](const auto& v) { return v.first == shape; });
-    wantedVariant = made || callsOfShape >= VulkanLighting::kCallsBeforeSpecializing ? shape : LightingVariant{};
-  }
-
-  // The pipeline of wantedVariant, a specialised one compiled on its first use and moved to the back of the
-  // list (most recently used) on each.
-  VkPipeline variantPipeline() {
-    if (wantedVariant == LightingVariant{}) return pipeline.pipeline.get();
-    auto it = std::find_if(variants.begin(), variants.end(), [&](const auto& v) { return v.first == wantedVariant; });
-    if (it != variants.end()) {
-      std::rotate(it, it + 1, variants.end());
-      return variants.back().second.get();
-    }
-    if (!variantModule)
-      variantModule = context.createShaderModule(deferred_lighting_variant, sizeof deferred_lighting_variant);
-    const auto constants = wantedVariant.constants();
-    std::array<VkSpecializationMapEntry, gpu::VS_LIGHTING_SPEC_COUNT> entries{};
-    for (std::uint32_t i = 0; i < entries.size(); ++i)
-      entries[i] = {i, std::uint32_t(i * sizeof(std::int32_t)), sizeof(std::int32_t)};
-    VkSpecializationInfo info{std::uint32_t(entries.size()), entries.data(), sizeof constants, constants.data()};
-    vk::UniquePipeline made = makePipeline(variantModule.get(), pipeline.layout.get(), &info);
-    ++variantsCompiled;
-    if (variants.size() == kKeptVariants) variants.erase(variants.begin());
-    variants.emplace_back(wantedVariant, std::move(made));
-    return variants.back().second.get();
-  }
-
-  void makeMomentPipeline() {
-    if (momentPipeline) return;
-    momentModule = context.createShaderModule(evsm_moments, sizeof evsm_moments);
-    momentLayout = makeLayout(sizeof(gpu::EvsmPush));
-    momentPipeline = makePipeline(momentModule.get(), momentLayout.get());
+    wantedVariant = callsOfShape >= VulkanLighting::kCallsBeforeSpecializing || pipelines->made(shape)
+        ? shape : LightingVariant{};
   }
 
   // Writes the moment pass's records (the store's buffers were sized by sizeFor); the pass itself is recorded
@@ -232,7 +281,7 @@ struct VulkanLighting::Impl {
   void writeMomentWork(const MomentWork* work, LightingTraffic& traffic) {
     momentWork = work && !work->empty() ? work : nullptr;
     if (!momentWork) return;
-    makeMomentPipeline();
+    pipelines->makeMomentPipeline();
     bool replaced = false;
     auto put = [&](std::uint32_t b, const void* data, std::size_t bytes) {
       replaced = reserve(b, bytes) || replaced;
@@ -395,7 +444,9 @@ struct VulkanLighting::Impl {
       shadedPixels += push.flags.y > 0 ? std::size_t(push.flags.y) : std::size_t(push.size.x) * std::size_t(push.size.y);
       ++dispatches;
     }
-    const VkPipeline shadePipeline = shade ? variantPipeline() : VK_NULL_HANDLE;
+    // Held for the dispatch: another pass on the device may drop it from the kept variants meanwhile.
+    const std::shared_ptr<vk::UniquePipeline> shadePipeline = shade ? pipelines->pipelineOf(wantedVariant) : nullptr;
+    const VkPipelineLayout layout = pipelines->general.layout.get();
     const MomentWork* moments = momentWork;
     momentWork = nullptr;
     if (moments) {
@@ -411,9 +462,9 @@ struct VulkanLighting::Impl {
                            nullptr, 0, nullptr);
       if (moments) recordMoments(cmd, *moments);
       if (shade) {
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, shadePipeline);
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet, 0, nullptr);
-        vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::ShadePush), &push);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, shadePipeline->get());
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptorSet, 0, nullptr);
+        vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::ShadePush), &push);
         vkCmdDispatch(cmd, groupsX, groupsY, 1);
       }
       auto toHost = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
@@ -430,8 +481,9 @@ struct VulkanLighting::Impl {
     auto between = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
     between.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
     between.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentPipeline.get());
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentLayout.get(), 0, 1, &descriptorSet, 0, nullptr);
+    const VkPipelineLayout momentLayout = pipelines->momentLayout.get();
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines->momentPipeline.get());
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentLayout, 0, 1, &descriptorSet, 0, nullptr);
     const std::uint32_t maxGroups = std::min<std::uint32_t>(context.info().maxWorkGroupCount[0], 65535u);
     for (int pass = 0; pass < 2; ++pass) {
       const std::size_t invocations = pass == 0 ? work.horizontal : work.vertical;
@@ -440,7 +492,7 @@ struct VulkanLighting::Impl {
       const std::uint32_t groupsY = std::uint32_t((groups + groupsX - 1) / groupsX);
       gpu::EvsmPush push{};
       push.pass = glm::ivec4(pass, int(work.jobs.size()), int(invocations), int(groupsX * gpu::VS_EVSM_GROUP_SIZE));
-      vkCmdPushConstants(cmd, momentLayout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+      vkCmdPushConstants(cmd, momentLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
       vkCmdDispatch(cmd, groupsX, groupsY, 1);
       vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1,
                            &between, 0, nullptr, 0, nullptr);
@@ -477,7 +529,10 @@ VulkanLighting::VulkanLighting(std::shared_ptr<VulkanContext> context, bool spec
     : impl_(std::make_unique<Impl>(std::move(context))) {
   impl_->specialize = specialize;
 }
-int VulkanLighting::variantsCompiled() const { return impl_->variantsCompiled; }
+int VulkanLighting::variantsCompiled() const {
+  std::lock_guard lock(impl_->pipelines->mutex);
+  return impl_->pipelines->compiled;
+}
 VulkanLighting::~VulkanLighting() = default;
 ShadeOutput VulkanLighting::shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                                   std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic,

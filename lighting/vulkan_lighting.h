@@ -56,9 +56,11 @@ class VulkanLighting {
   // holding only the code those lights run, which a CPU device (llvmpipe) needs to skip the rest (1.6x faster
   // on the demo frame on lavapipe). With `specialize`, a shape's variant is compiled once
   // kCallsBeforeSpecializing calls in a row asked for it, and used from then on while it is among the 8 most
-  // recently used; every variant gives the general shader's bits. The general shader is compiled here.
+  // recently used; every variant gives the general shader's bits. The pipelines are compiled once per device
+  // and shared by every VulkanLighting on it (VulkanContext::shared): the general shader here, by the first
+  // pass on the device.
   explicit VulkanLighting(std::shared_ptr<VulkanContext> context, bool specialize = true);
-  // Lighting shader variants compiled so far, the general one included.
+  // Lighting shader variants compiled so far on this pass's device, the general one included.
   int variantsCompiled() const;
 
   // A frame shape is specialised once this many calls in a row asked for it: a variant costs a compile (about

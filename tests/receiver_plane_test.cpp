@@ -22,6 +22,7 @@ struct PlaneProbe {
   const uint* rayVisibility = nullptr;
   float* shadowTerms = nullptr;
   vec4 vsLoadMoments(int) const { return vec4(0.0f); }
+  ShadeView vsLoadView(int i) const { return shadeViews[i]; }
 #include "lighting/shared/shading.h"
 };
 

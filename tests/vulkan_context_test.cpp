@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <functional>
 #include <initializer_list>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -222,6 +223,27 @@ TEST(VulkanContext, ValidationCapturesErrors) {
   std::vector<std::string> messages = context.validationMessages();
   ASSERT_FALSE(messages.empty());
   EXPECT_NE(messages.front().find("error"), std::string::npos) << messages.front();
+}
+
+// Objects shared per device: one per key while anyone holds it, a new one once the last holder let it go.
+TEST(VulkanContext, SharedObjectsAreMadeOncePerKeyWhileHeld) {
+  vs::VulkanContext context;
+  int made = 0;
+  auto make = [&] {
+    ++made;
+    return std::static_pointer_cast<void>(std::make_shared<int>(made));
+  };
+  std::shared_ptr<void> a = context.shared("a", make);
+  std::shared_ptr<void> again = context.shared("a", make);
+  std::shared_ptr<void> b = context.shared("b", make);
+  EXPECT_EQ(made, 2);
+  EXPECT_EQ(a, again);
+  EXPECT_NE(a, b);
+  a.reset();
+  again.reset();
+  std::shared_ptr<void> fresh = context.shared("a", make);
+  EXPECT_EQ(made, 3);
+  EXPECT_EQ(*std::static_pointer_cast<int>(fresh), 3);
 }
 
 TEST(VulkanTracer, HandComputedHits) {

@@ -403,6 +403,17 @@ vk::Buffer VulkanContext::createHostBuffer(VkDeviceSize size, VkBufferUsageFlags
                       VK_MEMORY_PROPERTY_HOST_CACHED_BIT, true);
 }
 
+std::shared_ptr<void> VulkanContext::shared(const std::string& key, const std::function<std::shared_ptr<void>()>& make) {
+  std::lock_guard lock(sharedMutex_);
+  std::weak_ptr<void>& slot = shared_[key];
+  std::shared_ptr<void> object = slot.lock();
+  if (!object) {
+    object = make();
+    slot = object;
+  }
+  return object;
+}
+
 vk::UniqueBufferView VulkanContext::createTexelView(const vk::Buffer& buffer, VkFormat format) {
   auto ci = vk::make<VkBufferViewCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO);
   ci.buffer = buffer.get();

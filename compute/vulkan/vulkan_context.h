@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -104,6 +105,11 @@ class VulkanContext {
 
   vk::UniqueShaderModule createShaderModule(const std::uint32_t* code, std::size_t bytes);
 
+  // An object every user of this device shares (compiled pipelines), named by `key`: the one made by an
+  // earlier call while any caller still holds it, else a new one from `make`, whose type is the caller's.
+  // The context keeps no reference of its own, so the object may hold one to the context.
+  std::shared_ptr<void> shared(const std::string& key, const std::function<std::shared_ptr<void>()>& make);
+
  private:
   std::uint32_t findMemoryType(std::uint32_t typeBits, VkMemoryPropertyFlags required,
                                VkMemoryPropertyFlags preferred) const;
@@ -114,6 +120,8 @@ class VulkanContext {
                                                   const VkDebugUtilsMessengerCallbackDataEXT* data, void* user);
 
   bool validation_ = false;
+  std::mutex sharedMutex_;
+  std::map<std::string, std::weak_ptr<void>> shared_;
   mutable std::mutex messagesMutex_;
   std::vector<std::string> messages_;
   vk::UniqueInstance instance_;

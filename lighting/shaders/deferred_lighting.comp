@@ -14,7 +14,7 @@ layout(local_size_x = VS_LIGHTING_GROUP_WIDTH, local_size_y = VS_LIGHTING_GROUP_
 
 layout(std430, set = 0, binding = VS_LIGHTING_BINDING_GBUFFER) readonly buffer GBufferBlock { GBufferTexel gbuffer[]; };
 layout(std430, set = 0, binding = VS_LIGHTING_BINDING_LIGHTS) readonly buffer LightBlock { ShadeLight shadeLights[]; };
-layout(std430, set = 0, binding = VS_LIGHTING_BINDING_VIEWS) readonly buffer ViewBlock { ShadeView shadeViews[]; };
+layout(set = 0, binding = VS_LIGHTING_BINDING_VIEWS) uniform usamplerBuffer shadeViewTexels;
 layout(std430, set = 0, binding = VS_LIGHTING_BINDING_SHADOW_TEXELS) readonly buffer TexelBlock { float shadowTexels[]; };
 layout(std430, set = 0, binding = VS_LIGHTING_BINDING_VISIBILITY) readonly buffer VisibilityBlock { uint rayVisibility[]; };
 layout(std430, set = 0, binding = VS_LIGHTING_BINDING_SHADOW_TERMS) writeonly buffer TermBlock { float shadowTerms[]; };
@@ -26,6 +26,20 @@ layout(std430, set = 0, binding = VS_LIGHTING_BINDING_MOMENTS_NEGATIVE) readonly
 layout(push_constant) uniform PushBlock { ShadePush push; };
 
 vec4 vsLoadMoments(int i) { return vec4(momentPositive[i], momentNegative[i]); }
+
+// ShadeView record i from its VS_SHADE_VIEW_TEXELS texels, in the member order of shading_layout.h.
+vec4 vsViewTexel(int i, int t) { return uintBitsToFloat(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + t)); }
+ShadeView vsLoadView(int i) {
+  ShadeView v;
+  v.eyeToClip = mat4(vsViewTexel(i, 0), vsViewTexel(i, 1), vsViewTexel(i, 2), vsViewTexel(i, 3));
+  v.clipToEye = mat4(vsViewTexel(i, 4), vsViewTexel(i, 5), vsViewTexel(i, 6), vsViewTexel(i, 7));
+  v.eye = vsViewTexel(i, 8);
+  v.eyeLow = vsViewTexel(i, 9);
+  v.split = vsViewTexel(i, 10);
+  v.info = ivec4(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + 11));
+  v.trace = ivec4(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + 12));
+  return v;
+}
 
 #ifdef VS_LIGHTING_VARIANT
 // The build that pipeline variants specialise (lighting/lighting_variant.h): the variant's constants

@@ -12,10 +12,11 @@ VS_NAMESPACE_BEGIN
 const uint VS_LIGHTING_GROUP_WIDTH = 8u;
 const uint VS_LIGHTING_GROUP_HEIGHT = 8u;
 
-// Storage buffers of descriptor set 0.
+// Storage buffers of descriptor set 0 but for VS_LIGHTING_BINDING_VIEWS.
 const uint VS_LIGHTING_BINDING_GBUFFER = 0u;        // GBufferTexel per pixel
 const uint VS_LIGHTING_BINDING_LIGHTS = 1u;         // ShadeLight per light
-const uint VS_LIGHTING_BINDING_VIEWS = 2u;          // ShadeView per shadow layer
+// ShadeView per shadow layer, VS_SHADE_VIEW_TEXELS texels each, read as a uniform texel buffer (RGBA32UI).
+const uint VS_LIGHTING_BINDING_VIEWS = 2u;
 const uint VS_LIGHTING_BINDING_SHADOW_TEXELS = 3u;  // float: every layer, one after another
 const uint VS_LIGHTING_BINDING_VISIBILITY = 4u;     // uint per pixel and light
 const uint VS_LIGHTING_BINDING_SHADOW_TERMS = 5u;   // float per pixel and light (written)

@@ -5,7 +5,7 @@
 //
 // The includer provides, as arrays or buffer members of these names:
 //   shadowTexels[i] (float): every shadow layer, row by row, one after another (ShadeView.info.x)
-//   shadeViews[i] (ShadeView), shadeLights[i] (ShadeLight)
+//   vsLoadView(i) (a function, ShadeView): shadow view i's record; shadeLights[i] (ShadeLight)
 //   rayVisibility[i] (uint): per pixel and light (pixel * lightCount + light), 1 where the exact visibility
 //     ray toward the light (its whole length for ray-traced shadows, the contact length otherwise) is clear
 //   shadowTerms[i] (float, written): per pixel and light, the shadow term vsShadePixel used
@@ -238,29 +238,34 @@ vec3 vsBiasedReceiver(VS_IN(ShadeLight) light, VS_IN(ShadeView) view, vec3 p, ve
   return p + n * (light.bias.y * texel) + toLight * alongLight;
 }
 
-// The filtered shadow-map term of one view, or -1 where the view does not cover the receiver. lateral: the
-// kernel must lie inside the layer (cascades, spot views); cube faces leave it out, since a receiver near a
-// face's edge is as near the edge of its neighbour, and read clamped texels instead.
+// The receiver as `view` compares it (its biased plane or depth) and where its kernel is centred; false where
+// the view does not cover the receiver. lateral: the kernel must lie inside the layer (cascades, spot views);
+// cube faces leave it out, since a receiver near a face's edge is as near the edge of its neighbour, and read
+// clamped texels instead.
 // Layers of entry depths compare each texel with the receiver's plane, moved by the biases, at the texel's own
 // ray; the kernel is centred where the receiver itself projects. Layers of voxel-centre depths compare the
 // biased receiver's depth, centred where it projects.
-float vsViewShadow(VS_IN(ShadeLight) light, int viewIndex, vec3 p, vec3 n, vec3 toLight, float nDotL,
-                   float lightDistance, bool lateral) {
-  ShadeView view = shadeViews[viewIndex];
+bool vsViewReceiver(VS_IN(ShadeLight) light, VS_IN(ShadeView) view, vec3 p, vec3 n, vec3 toLight, float nDotL,
+                    float lightDistance, bool lateral, VS_OUT(VsReceiver) r, VS_OUT(vec2) texel) {
   vec3 biased = vsBiasedReceiver(light, view, p, n, toLight, nDotL, lightDistance);
-  VsReceiver r;
   r.plane = view.trace.x != VS_DEPTH_POINT_ENTRY ? VS_RECEIVER_DEPTH
       : view.info.z == VS_ENCODING_NDC_DEPTH ? VS_RECEIVER_PLANE_AFFINE : VS_RECEIVER_PLANE;
   r.normal = n;
   r.rel = (biased - vec3(view.eye)) - vec3(view.eyeLow);
-  vec2 texel;
-  if (!vsProjectToView(view, biased, texel, r.depth)) return -1.0f;
+  r.slope = vec3(0.0f);
+  r.base = ivec2(0);
+  if (!vsProjectToView(view, biased, texel, r.depth)) return false;
   float depth = r.depth;
-  if (r.plane != VS_RECEIVER_DEPTH && !vsProjectToView(view, p, texel, depth)) return -1.0f;
+  if (r.plane != VS_RECEIVER_DEPTH && !vsProjectToView(view, p, texel, depth)) return false;
+  return !lateral || vsInsideView(view, texel, depth, vsFilterReach(light.info.y));
+}
+
+// The filtered shadow-map term of one view at a receiver it covers (vsViewReceiver gave r and texel).
+float vsViewFilter(VS_IN(ShadeLight) light, VS_IN(ShadeView) view, vec3 p, vec3 n, float lightDistance,
+                   VsReceiver r, vec2 texel) {
   int kind = light.info.y;
-  if (lateral && !vsInsideView(view, texel, depth, vsFilterReach(kind))) return -1.0f;
   r.base = ivec2(floor(texel));
-  r.slope = r.plane == VS_RECEIVER_PLANE_AFFINE ? vsPlaneSlope(view, r.base, r.rel, n) : vec3(0.0f);
+  if (r.plane == VS_RECEIVER_PLANE_AFFINE) r.slope = vsPlaneSlope(view, r.base, r.rel, n);
   float texelWorld = vsTexelWorld(view, lightDistance);
   if (kind == VS_FILTER_HARD) return vsCompare(view, ivec2(floor(texel)), r);
   if (kind == VS_FILTER_PCF3) return vsFilterBox(view, texel, r, 1);
@@ -274,44 +279,53 @@ float vsViewShadow(VS_IN(ShadeLight) light, int viewIndex, vec3 p, vec3 n, vec3 
 // The shadow-map term of a light at a receiver (1 lit, 0 shadowed). Cascades: the first whose depth range
 // holds the pixel's view depth and whose layer holds the kernel; in the blend band at its far end it mixes
 // with the next one, and the last one fades to lit. A receiver outside every view is lit.
+// The view is chosen before any filter runs, and each view record is read once per receiver (a record is 208
+// bytes).
 float vsShadowMapTerm(VS_IN(ShadeLight) light, vec3 p, vec3 n, vec3 toLight, float nDotL, float lightDistance,
                       float viewDepth) {
   int first = light.info.z;
   int count = light.info.w;
+  VsReceiver r;
+  vec2 texel;
   if (light.info.x == VS_LIGHT_POINT) {
     // The cube face of the major axis, in layer order +x, -x, +y, -y, +z, -z.
     vec3 d = p - vec3(light.position);
     vec3 a = abs(d);
     int face = a.x >= a.y && a.x >= a.z ? (d.x >= 0.0f ? 0 : 1) : (a.y >= a.z ? (d.y >= 0.0f ? 2 : 3) : (d.z >= 0.0f ? 4 : 5));
-    float s = vsViewShadow(light, first + face, p, n, toLight, nDotL, lightDistance, false);
-    return s < 0.0f ? 1.0f : s;
+    ShadeView faceView = vsLoadView(first + face);
+    if (!vsViewReceiver(light, faceView, p, n, toLight, nDotL, lightDistance, false, r, texel)) return 1.0f;
+    return vsViewFilter(light, faceView, p, n, lightDistance, r, texel);
   }
+  int chosen = -1;
+  ShadeView view;
   for (int c = 0; c < count; ++c) {
-    ShadeView view = shadeViews[first + c];
-    bool cascade = view.info.w >= 0;
-    if (cascade && !(viewDepth >= view.split.x && viewDepth < view.split.y)) continue;
-    float s = vsViewShadow(light, first + c, p, n, toLight, nDotL, lightDistance, true);
-    if (s < 0.0f) continue;
-    if (!cascade) return s;
-    float band = light.extra.z * (view.split.y - view.split.x);
-    if (band > 0.0f && viewDepth > view.split.y - band) {
-      float t = (viewDepth - (view.split.y - band)) / band;
-      float next = 1.0f;
-      if (c + 1 < count) {
-        next = vsViewShadow(light, first + c + 1, p, n, toLight, nDotL, lightDistance, true);
-        if (next < 0.0f) next = s;
-      }
-      s = mix(s, next, t);
-    }
-    return s;
+    view = vsLoadView(first + c);
+    if (view.info.w >= 0 && !(viewDepth >= view.split.x && viewDepth < view.split.y)) continue;
+    if (!vsViewReceiver(light, view, p, n, toLight, nDotL, lightDistance, true, r, texel)) continue;
+    chosen = c;
+    break;
   }
-  return 1.0f;
+  if (chosen < 0) return 1.0f;
+  float s = vsViewFilter(light, view, p, n, lightDistance, r, texel);
+  if (view.info.w < 0) return s;
+  float band = light.extra.z * (view.split.y - view.split.x);
+  if (band > 0.0f && viewDepth > view.split.y - band) {
+    float t = (viewDepth - (view.split.y - band)) / band;
+    float next = 1.0f;
+    if (chosen + 1 < count) {
+      ShadeView nextView = vsLoadView(first + chosen + 1);
+      next = vsViewReceiver(light, nextView, p, n, toLight, nDotL, lightDistance, true, r, texel)
+          ? vsViewFilter(light, nextView, p, n, lightDistance, r, texel) : s;
+    }
+    s = mix(s, next, t);
+  }
+  return s;
 }
 
 // Which cascade of the light the receiver's shadow comes from (-1: none), for the cascade debug view.
 int vsCascadeOf(VS_IN(ShadeLight) light, vec3 p, float viewDepth) {
   for (int c = 0; c < light.info.w; ++c) {
-    ShadeView view = shadeViews[light.info.z + c];
+    ShadeView view = vsLoadView(light.info.z + c);
     if (view.info.w < 0 || !(viewDepth >= view.split.x && viewDepth < view.split.y)) continue;
     vec2 texel;
     float depth;

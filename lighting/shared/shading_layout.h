@@ -70,6 +70,11 @@ struct ShadeLight {
 // A shadow layer as the pass samples it. The texel rays are rebuilt exactly as the trace kernels built them
 // (clipToEye and the split eye of the layer's TraceView), so that a receiver's plane can be met by the very
 // ray whose depth a texel stores (vsReceiverPlaneDepth).
+// The lighting shader reads ShadeView records through a uniform texel buffer of 16-byte RGBA32UI texels
+// (lighting/shaders/deferred_lighting.comp, vsLoadView): a CPU device (llvmpipe) loads a storage buffer one
+// lane at a time, a texel fetch as one gather. Each record is this many texels.
+const int VS_SHADE_VIEW_TEXELS = 13;
+
 struct ShadeView {
   mat4 eyeToClip;  // clip = eyeToClip * (p - eye): the view-projection about its eye
   mat4 clipToEye;  // its inverse, inverted in double: the TraceView's
@@ -145,6 +150,7 @@ VS_OFFSET_CHECK(ShadeLight, bias, 48);
 VS_OFFSET_CHECK(ShadeLight, extra, 64);
 VS_OFFSET_CHECK(ShadeLight, info, 80);
 VS_LAYOUT_CHECK(ShadeView, 208);
+static_assert(sizeof(ShadeView) == VS_SHADE_VIEW_TEXELS * 16, "a ShadeView is VS_SHADE_VIEW_TEXELS 16-byte texels");
 VS_OFFSET_CHECK(ShadeView, clipToEye, 64);
 VS_OFFSET_CHECK(ShadeView, eye, 128);
 VS_OFFSET_CHECK(ShadeView, eyeLow, 144);
