@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cstring>
 #include <chrono>
+#include <cstdio>
 #include <fstream>
 #include <random>
 #include <string>
@@ -133,7 +134,8 @@ TEST(CliSignals, KilledBakesLeaveWholeOutputsAndNoTemporaries) {
   std::mt19937 rng(20261201);
   std::uniform_real_distribution<double> when(0.0, seconds);
   int interruptedExits = 0, killedDuringWork = 0;
-  for (int round = 0; round < 24; ++round) {
+  // 15 rounds, 5 of each signal: each costs two bakes, and the suite has a time budget.
+  for (int round = 0; round < 15; ++round) {
     const int sig = round % 3 == 0 ? SIGINT : round % 3 == 1 ? SIGKILL : SIGTERM;
     SCOPED_TRACE("round " + std::to_string(round) + ", signal " + std::to_string(sig));
     // Each round starts from A's outputs (the previous round ends with them) and interrupts a bake of B.
@@ -165,8 +167,10 @@ TEST(CliSignals, KilledBakesLeaveWholeOutputsAndNoTemporaries) {
     EXPECT_TRUE(readOutputs(dir) == a);
   }
   // The kills must really have landed while work was going on, not only after it.
-  EXPECT_GE(killedDuringWork, 12);
-  EXPECT_GE(interruptedExits, 8);
+  std::printf("15 rounds: %d ended by their signal during work, %d of them by the handler\n", killedDuringWork,
+              interruptedExits);
+  EXPECT_GE(killedDuringWork, 8);
+  EXPECT_GE(interruptedExits, 5);
 }
 
 namespace {
