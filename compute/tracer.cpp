@@ -8,6 +8,8 @@
 #include <tbb/parallel_for.h>
 
 #include "compute/cpu/cpu_tracer.h"
+#include "compute/shared/camera_rays.h"
+#include "compute/shared/visibility_rays.h"
 #include "compute/vulkan/vulkan_tracer.h"
 #include "voxel/error.h"
 
@@ -23,6 +25,7 @@ class CpuBackend final : public Tracer {
     int threads = options_.threads > 0 ? options_.threads : int(std::thread::hardware_concurrency());
     return "CPU, " + std::to_string(threads) + (threads == 1 ? " thread" : " threads");
   }
+  int hostThreads() const override { return options_.threads; }
   void bindScene(const SceneData& scene) override {
     // The tables derived from the voxels are rebuilt on the next trace.
     tracer_ = std::make_unique<CpuTracer>(scene);
@@ -37,17 +40,17 @@ class CpuBackend final : public Tracer {
     (void)scene;
     tracer_->sceneChanged(delta);
   }
-  TraceStats traceShadow(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) override {
+  TraceStats runShadow(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) override {
     return timed(raysOf(views), [&] { bound().trace(views, layers, options_.path, options_.threads); });
   }
-  TraceStats traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits) override {
+  TraceStats runClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits) override {
     return timed(rays.size(), [&] { bound().traceClosest(rays, hits, options_.path, options_.threads); });
   }
-  TraceStats traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded) override {
+  TraceStats runAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded) override {
     return timed(rays.size(), [&] { bound().traceAny(rays, occluded, options_.path, options_.threads); });
   }
-  TraceStats traceCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
-                         std::span<gpu::RayHit> hits) override {
+  TraceStats runCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
+                       std::span<gpu::RayHit> hits) override {
     const std::uint64_t count = checkCameraTrace(camera, pixels, hits.size());
     CpuTracer& tracer = bound();
     // In slices through one kept buffer per calling thread: a whole frame's rays in fresh pages cost more to
@@ -67,9 +70,9 @@ class CpuBackend final : public Tracer {
       }
     });
   }
-  TraceStats traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
-                             std::span<const gpu::VisibilityReceiver> receivers,
-                             std::span<std::uint32_t> occluded) override {
+  TraceStats runVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
+                           std::span<const gpu::VisibilityReceiver> receivers,
+                           std::span<std::uint32_t> occluded) override {
     const std::uint64_t count = checkVisibilityTrace(frame, lights, receivers, occluded.size());
     CpuTracer& tracer = bound();
     // In slices, as traceCamera: whole receivers of about 65,536 rays each.
@@ -115,36 +118,38 @@ class CpuBackend final : public Tracer {
 
 class VulkanBackend final : public Tracer {
  public:
-  explicit VulkanBackend(const VulkanOptions& options) : tracer_(options) {}
+  explicit VulkanBackend(const VulkanOptions& options) : tracer_(options), hostThreads_(options.hostThreads) {}
 
   std::string backend() const override { return "vulkan"; }
   std::string deviceName() const override { return tracer_.device().name; }
+  int hostThreads() const override { return hostThreads_; }
   void bindScene(const SceneData& scene) override { tracer_.upload(scene); }
   void bindMovedInstances(const SceneData& scene) override { tracer_.uploadInstances(scene); }
   void bindDelta(const SceneData& scene, const SceneDelta& delta) override { tracer_.update(scene, delta); }
-  std::uint64_t bytesUploaded() const override { return tracer_.bytesUploaded(); }
-  TraceStats traceShadow(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) override {
+  std::uint64_t uploadedBytes() const override { return tracer_.bytesUploaded(); }
+  TraceStats runShadow(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) override {
     return tracer_.trace(views, layers);
   }
-  TraceStats traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits) override {
+  TraceStats runClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits) override {
     return tracer_.traceClosest(rays, hits);
   }
-  TraceStats traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded) override {
+  TraceStats runAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded) override {
     return tracer_.traceAny(rays, occluded);
   }
-  TraceStats traceCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
-                         std::span<gpu::RayHit> hits) override {
+  TraceStats runCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
+                       std::span<gpu::RayHit> hits) override {
     return tracer_.traceCamera(camera, pixels, hits);
   }
-  TraceStats traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
-                             std::span<const gpu::VisibilityReceiver> receivers,
-                             std::span<std::uint32_t> occluded) override {
+  TraceStats runVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
+                           std::span<const gpu::VisibilityReceiver> receivers,
+                           std::span<std::uint32_t> occluded) override {
     return tracer_.traceVisibility(frame, lights, receivers, occluded);
   }
   VulkanTracer* vulkan() override { return &tracer_; }
 
  private:
   VulkanTracer tracer_;
+  int hostThreads_;
 };
 
 }  // namespace

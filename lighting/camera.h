@@ -6,7 +6,7 @@
 
 #include <glm/glm.hpp>
 
-#include "compute/shared/camera_rays.h"
+#include "compute/shared/trace_rays.h"
 #include "lighting/scene_file.h"
 
 namespace vs {

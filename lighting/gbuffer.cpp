@@ -7,6 +7,8 @@
 
 #include <tbb/parallel_for.h>
 
+#include "compute/shared/camera_rays.h"
+#include "compute/shared/visibility_rays.h"
 #include "voxel/error.h"
 
 namespace vs {

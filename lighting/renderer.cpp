@@ -11,11 +11,13 @@
 #include <utility>
 
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "compute/vulkan/vulkan_tracer.h"
 #include "lighting/evsm.h"
 #include "lighting/vulkan_lighting.h"
 #include "voxel/error.h"
+#include "voxel/one_call.h"
 #include "voxel/valid_range.h"
 
 namespace vs {
@@ -321,7 +323,29 @@ FrameRenderer::FrameRenderer(Tracer& tracer)
 
 FrameRenderer::~FrameRenderer() = default;
 
+class FrameRenderer::InUse : public OneCallAtATime {
+ public:
+  InUse(const FrameRenderer& renderer, const char* call)
+      : OneCallAtATime(renderer.busy_, "FrameRenderer", call, "renderer",
+                       "a renderer serves one call at a time (make one renderer per thread, or wait for the other "
+                       "call)") {}
+};
+
+void FrameRenderer::invalidateLayers() {
+  InUse use(*this, "invalidateLayers");
+  forceFull_ = true;
+}
+
+void FrameRenderer::setFootprintMargin(double texels) {
+  InUse use(*this, "setFootprintMargin");
+  footprintMargin_ = texels;
+}
+
 std::vector<ShadowLayer> FrameRenderer::layers() const {
+  InUse use(*this, "layers");
+  if (tracerAlive_.expired())
+    throwRuntime("FrameRenderer::layers: the renderer's tracer was destroyed");
+  Tracer::Exclusive hold(tracer_);
   std::vector<ShadowLayer> out;
   const State& s = *state_;
   // Layers kept on the device are read back now, since the caller asks for them.
@@ -343,6 +367,10 @@ std::vector<ShadowLayer> FrameRenderer::layers() const {
 }
 
 std::vector<std::vector<glm::vec4>> FrameRenderer::moments() const {
+  InUse use(*this, "moments");
+  if (tracerAlive_.expired())
+    throwRuntime("FrameRenderer::moments: the renderer's tracer was destroyed");
+  Tracer::Exclusive hold(tracer_);
   const State& s = *state_;
   std::vector<glm::vec4> device;
   if (s.lighting && tracer_.vulkan() && s.momentTexels > 0) {
@@ -361,9 +389,20 @@ std::vector<std::vector<glm::vec4>> FrameRenderer::moments() const {
 }
 
 const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptions& options) {
+  InUse use(*this, "render");
   if (tracerAlive_.expired())
     throwRuntime("FrameRenderer::render: the renderer's tracer was destroyed; make the renderer on a live tracer");
   checkRenderOptions(options);
+  Scene::Reading reading(scene, "FrameRenderer::render");
+  // Another renderer's frame on this tracer (another thread) runs before or after this one, never between its
+  // scene binding and its traces.
+  Tracer::Exclusive hold(tracer_);
+  const RenderedFrame* frame = nullptr;
+  inHostArena(tracer_.hostThreads(), [&] { frame = &renderFrame(scene, options); });
+  return *frame;
+}
+
+const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const RenderOptions& options) {
   const SceneDesc& desc = scene.desc();
   if (!desc.camera) throwBadInput(desc.file.string() + ": camera: a scene needs a camera to be rendered");
   const CameraFrame camera = cameraFrame(*desc.camera, options.width, options.height);
@@ -391,6 +430,7 @@ const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptio
   // 1. What changed in the scene since the kept frame, and the tracer's copy brought up to date.
   auto t0 = Clock::now();
   FrameStats stats;
+  stats.hostThreads = tbb::this_task_arena::max_concurrency();
   std::vector<const SceneChange*> changes;
   const std::uint64_t uploadedBefore = tracer_.bytesUploaded();
   bool full = forceFull_ || !s.valid || s.sceneId != scene.id() || s.data != scene.sharedData() ||

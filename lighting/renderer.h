@@ -5,6 +5,7 @@
 #ifndef VOXSHADOW_RENDERER_H
 #define VOXSHADOW_RENDERER_H
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -68,6 +69,9 @@ struct FrameStats {
   std::uint64_t bytesUploaded = 0;
   std::uint64_t bytesReadBack = 0;
   int dispatches = 0;             // compute dispatches recorded (Vulkan), trace batches and passes run (CPU)
+  // The host threads the frame's own work could use (the arena it ran in: Tracer::hostThreads, else the
+  // caller's).
+  int hostThreads = 0;
 };
 
 struct RenderedFrame {
@@ -88,6 +92,11 @@ class FrameRenderer {
   // `tracer` traces every ray kind; on the Vulkan backend the lighting pass also runs on its device. The
   // renderer binds the scenes it renders to the tracer itself. A tracer destroyed before the renderer makes
   // render() throw vs::Error(Runtime); the renderer's own device resources keep the device alive until it goes.
+  // Threads: a renderer serves one call at a time (render, layers, moments, invalidateLayers,
+  // setFootprintMargin), from any thread; a call made while another runs on the same renderer throws
+  // vs::Error(Runtime) and changes nothing. Renderers on several threads may share one tracer: each holds it for
+  // its frame (Tracer::Exclusive), so frames run one after another on it. The host work of a frame (G-buffer
+  // resolve, CPU shading, EVSM filter) runs on Tracer::hostThreads threads.
   explicit FrameRenderer(Tracer& tracer);
   ~FrameRenderer();
   FrameRenderer(const FrameRenderer&) = delete;
@@ -103,7 +112,9 @@ class FrameRenderer {
   // may share a tracer. The frame stays owned by the renderer, valid until the next render() call.
   // Preconditions: the scene has a camera (else vs::Error(BadInput)); options pass checkRenderOptions;
   // options.debugLayer names an existing layer for DebugView::Layer, and one of an EVSM light for
-  // DebugView::Moments (else vs::Error(BadInput)).
+  // DebugView::Moments (else vs::Error(BadInput)). While it runs it reads the scene (Scene::Reading): a change to
+  // the scene from another thread meanwhile is refused with vs::Error(Runtime), as a render of a scene that
+  // another thread is changing is.
   const RenderedFrame& render(const Scene& scene, const RenderOptions& options);
 
   // The shadow layers of the last frame that had shadow maps (its views' order), as stored: a cascade's
@@ -115,15 +126,19 @@ class FrameRenderer {
   // no longer holds them and this throws vs::Error until the next frame with maps.
   std::vector<std::vector<glm::vec4>> moments() const;
   // Makes the next frame redo everything (a benchmark's forced full frame).
-  void invalidateLayers() { forceFull_ = true; }
+  void invalidateLayers();
 
   // Texels added on every side of a changed box's footprint in each layer (DESIGN.md §11: one). Exists so
   // that the frame-loop tests can show they notice an invalidation one texel too small (-1); a renderer with
   // anything below 1 no longer equals a new one.
-  void setFootprintMargin(double texels) { footprintMargin_ = texels; }
+  void setFootprintMargin(double texels);
 
  private:
   struct State;
+  // Held by each call for its length; a second call meanwhile is refused (vs::Error(Runtime)).
+  class InUse;
+  const RenderedFrame& renderFrame(const Scene& scene, const RenderOptions& options);
+  mutable std::atomic<bool> busy_{false};
   Tracer& tracer_;
   std::weak_ptr<const int> tracerAlive_;
   bool forceFull_ = false;

@@ -106,6 +106,35 @@ std::uint64_t nextSceneId() {
 
 }  // namespace
 
+// Held by each change for its length (Scene::Reading's counterpart).
+class Scene::Changing {
+ public:
+  Changing(Scene& scene, const char* call) : scene_(scene) {
+    int idle = 0;
+    if (!scene_.use_.value.compare_exchange_strong(idle, -1, std::memory_order_acquire))
+      throwRuntime(std::string(call) + ": the scene is " +
+                   (idle > 0 ? "being rendered" : "being changed") +
+                   " on another thread; a change must wait until that is done (nothing was changed)");
+  }
+  ~Changing() { scene_.use_.value.store(0, std::memory_order_release); }
+  Changing(const Changing&) = delete;
+  Changing& operator=(const Changing&) = delete;
+
+ private:
+  Scene& scene_;
+};
+
+Scene::Reading::Reading(const Scene& scene, const char* reader) : scene_(scene) {
+  int count = scene_.use_.value.load(std::memory_order_relaxed);
+  do {
+    if (count < 0)
+      throwRuntime(std::string(reader) +
+                   ": the scene is being changed on another thread; render it once the change is done");
+  } while (!scene_.use_.value.compare_exchange_weak(count, count + 1, std::memory_order_acquire));
+}
+
+Scene::Reading::~Reading() { scene_.use_.value.fetch_sub(1, std::memory_order_release); }
+
 Scene::Scene() : id_(nextSceneId()) {}
 
 Scene::Scene(const Scene& other)
@@ -124,7 +153,9 @@ Scene::Scene(const Scene& other)
       id_(nextSceneId()) {}
 
 Scene& Scene::operator=(const Scene& other) {
-  if (this != &other) *this = Scene(other);
+  if (this == &other) return *this;
+  Changing changing(*this, "Scene::operator=");
+  *this = Scene(other);
   return *this;
 }
 
@@ -198,11 +229,13 @@ Scene Scene::load(SceneDesc desc) {
 }
 
 void Scene::setCamera(const CameraDesc& camera) {
+  Changing changing(*this, "Scene::setCamera");
   checkCamera(camera, "Scene::setCamera: camera");
   desc_.camera = camera;
 }
 
 void Scene::moveInstance(std::size_t i, const glm::dmat4& transform) {
+  Changing changing(*this, "Scene::moveInstance");
   if (i >= instances_.size())
     throwBadInput("moveInstance: instance " + std::to_string(i) + " out of range (the scene has " +
                   std::to_string(instances_.size()) + ")");
@@ -238,6 +271,7 @@ void Scene::moveInstance(std::size_t i, const glm::dmat4& transform) {
 }
 
 void Scene::moveLight(std::size_t i, const glm::vec3& position, const glm::vec3& direction) {
+  Changing changing(*this, "Scene::moveLight");
   if (i >= desc_.lights.size())
     throwBadInput("moveLight: light " + std::to_string(i) + " out of range (the scene has " +
                   std::to_string(desc_.lights.size()) + ")");
@@ -271,6 +305,7 @@ void Scene::moveLight(std::size_t i, const glm::vec3& position, const glm::vec3&
 }
 
 void Scene::setLightColor(std::size_t i, const glm::vec3& color, float intensity) {
+  Changing changing(*this, "Scene::setLightColor");
   if (i >= desc_.lights.size())
     throwBadInput("setLightColor: light " + std::to_string(i) + " out of range (the scene has " +
                   std::to_string(desc_.lights.size()) + ")");
@@ -462,11 +497,13 @@ void Scene::editObject(std::size_t object, const char* call, const VoxelBox& box
 }
 
 void Scene::fillVoxels(std::size_t object, const VoxelBox& box, std::uint8_t material) {
+  Changing changing(*this, "Scene::fillVoxels");
   editObject(object, "fillVoxels", material != 0 ? box : VoxelBox{},
              [&](Brickmap& b) { return b.fillBox(box, material); });
 }
 
 void Scene::setVoxels(std::size_t object, std::span<const SolidVoxel> voxels) {
+  Changing changing(*this, "Scene::setVoxels");
   VoxelBox added;
   for (const SolidVoxel& v : voxels) {
     for (int a = 0; a < 3; ++a)
@@ -509,6 +546,7 @@ std::size_t Scene::addObject(Brickmap brickmap, std::vector<glm::vec3> palette, 
 }
 
 std::size_t Scene::addObject(VoxelObject object) {
+  Changing changing(*this, "Scene::addObject");
   checkAffine("addObject: brickToObject", object.brickToObject);
   SceneChange change;
   const std::uint32_t index = data_->addObject(object.brickmap, &change.arrays);
@@ -518,6 +556,7 @@ std::size_t Scene::addObject(VoxelObject object) {
 }
 
 std::size_t Scene::addInstance(std::size_t object, const glm::dmat4& transform) {
+  Changing changing(*this, "Scene::addInstance");
   const std::string where = "addInstance: object " + std::to_string(object);
   if (object >= objects_.size())
     throwBadInput(where + ": out of range (the scene has " + std::to_string(objects_.size()) + " objects)");
@@ -556,6 +595,7 @@ std::size_t Scene::addInstance(std::size_t object, const glm::dmat4& transform) 
 }
 
 void Scene::removeInstance(std::size_t i) {
+  Changing changing(*this, "Scene::removeInstance");
   if (i >= instances_.size())
     throwBadInput("removeInstance: instance " + std::to_string(i) + " out of range (the scene has " +
                   std::to_string(instances_.size()) + ")");
@@ -568,6 +608,7 @@ void Scene::removeInstance(std::size_t i) {
 }
 
 void Scene::setInstanceObject(std::size_t i, std::size_t object) {
+  Changing changing(*this, "Scene::setInstanceObject");
   const std::string where = "setInstanceObject: instance " + std::to_string(i);
   if (i >= instances_.size()) throwBadInput(where + ": out of range (the scene has " + std::to_string(instances_.size()) + ")");
   if (!instanceActive(i)) throwBadInput(where + ": the instance was removed");
@@ -594,6 +635,7 @@ void Scene::setInstanceObject(std::size_t i, std::size_t object) {
 }
 
 std::size_t Scene::addLight(LightDesc light) {
+  Changing changing(*this, "Scene::addLight");
   const std::string where = "addLight: lights[" + std::to_string(desc_.lights.size()) + "]";
   if (light.name.empty()) light.name = "light" + std::to_string(desc_.lights.size());
   for (const LightDesc& l : desc_.lights)
@@ -613,6 +655,7 @@ std::size_t Scene::addLight(LightDesc light) {
 }
 
 void Scene::removeLight(std::size_t i) {
+  Changing changing(*this, "Scene::removeLight");
   if (i >= desc_.lights.size())
     throwBadInput("removeLight: light " + std::to_string(i) + " out of range (the scene has " +
                   std::to_string(desc_.lights.size()) + ")");
@@ -625,6 +668,7 @@ void Scene::removeLight(std::size_t i) {
 }
 
 void Scene::setLightEnabled(std::size_t i, bool enabled) {
+  Changing changing(*this, "Scene::setLightEnabled");
   if (i >= desc_.lights.size())
     throwBadInput("setLightEnabled: light " + std::to_string(i) + " out of range (the scene has " +
                   std::to_string(desc_.lights.size()) + ")");

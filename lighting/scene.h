@@ -2,6 +2,7 @@
 #ifndef VOXSHADOW_SCENE_H
 #define VOXSHADOW_SCENE_H
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -149,7 +150,32 @@ class Scene {
   // The trace arrays, shared: a tracer bound to them keeps them alive (FrameRenderer binds through this).
   std::shared_ptr<const SceneData> sharedData() const { return data_; }
 
+  // --- Threads. A scene's const calls may run on several threads at once; a change (the calls above that are
+  // not const, and copy assignment) must overlap nothing else on the same scene. A reader that takes long
+  // (FrameRenderer::render) holds a Reading for its length: a change meanwhile is refused with
+  // vs::Error(Runtime), nothing changed, and a Reading taken while a change runs is refused the same way.
+  // Several Readings may be held at once (renderers on several threads rendering one scene).
+  class Reading {
+   public:
+    Reading(const Scene& scene, const char* reader);
+    ~Reading();
+    Reading(const Reading&) = delete;
+    Reading& operator=(const Reading&) = delete;
+
+   private:
+    const Scene& scene_;
+  };
+
  private:
+  class Changing;
+  // Readings held (> 0) or a change running (-1). Copies and moves of a scene start at 0.
+  struct UseCount {
+    std::atomic<int> value{0};
+    UseCount() = default;
+    UseCount(const UseCount&) noexcept {}
+    UseCount& operator=(const UseCount&) noexcept { return *this; }
+  };
+  mutable UseCount use_;
   SceneDesc desc_;
   std::vector<VoxelObject> objects_;
   std::vector<SceneInstance> instances_;

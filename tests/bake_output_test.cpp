@@ -45,11 +45,11 @@ vs::BakedView makeView(std::string light, std::string name, std::string encoding
 }
 
 std::vector<vs::BakedView> threeViews() {
-  glm::mat4 ortho = glm::ortho(-10.0f, 10.0f, -5.0f, 5.0f, 0.5f, 100.0f) *
+  glm::mat4 ortho = glm::orthoRH_ZO(-10.0f, 10.0f, -5.0f, 5.0f, 0.5f, 100.0f) *
                     glm::lookAt(glm::vec3(4, 20, 3), glm::vec3(0), glm::vec3(0, 0, 1));
-  glm::mat4 spot = glm::perspective(glm::radians(60.0f), 1.0f, 0.1f, 40.0f) *
+  glm::mat4 spot = glm::perspectiveRH_ZO(glm::radians(60.0f), 1.0f, 0.1f, 40.0f) *
                    glm::lookAt(glm::vec3(0, 10, 0), glm::vec3(0, 0, 0.01f), glm::vec3(0, 1, 0));
-  glm::mat4 face = glm::perspective(glm::radians(90.0f), 1.0f, 0.05f, 20.0f) *
+  glm::mat4 face = glm::perspectiveRH_ZO(glm::radians(90.0f), 1.0f, 0.05f, 20.0f) *
                    glm::lookAt(glm::vec3(5, 3, 5), glm::vec3(6, 3, 5), glm::vec3(0, -1, 0));
   std::vector<vs::BakedView> views;
   views.push_back(makeView("sun", "sun.cascade0", "ndc_depth", "entry", 1.0f, std::nullopt, ortho, 16, 8, 0.0f));

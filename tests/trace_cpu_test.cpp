@@ -5,6 +5,7 @@
 #include <random>
 
 #include <glm/gtc/matrix_transform.hpp>
+#define GLM_ENABLE_EXPERIMENTAL
 #include <glm/gtx/component_wise.hpp>
 #include <gtest/gtest.h>
 

@@ -113,7 +113,7 @@ TraceView makeView(const glm::mat4& viewProj, int width, int height, int encodin
 // Texel (x, y) covers column x, z = 7 - y (the up vector is -z, and row 0 is the bottom of NDC).
 TraceView topDownView(int depthPoint) {
   glm::mat4 view = glm::lookAt(glm::vec3(4, 10, 4), glm::vec3(4, 0, 4), glm::vec3(0, 0, -1));
-  glm::mat4 proj = glm::ortho(-4.0f, 4.0f, -4.0f, 4.0f, 0.0f, 20.0f);
+  glm::mat4 proj = glm::orthoRH_ZO(-4.0f, 4.0f, -4.0f, 4.0f, 0.0f, 20.0f);
   return makeView(proj * view, 8, 8, vs::gpu::VS_ENCODING_NDC_DEPTH, depthPoint);
 }
 
@@ -122,7 +122,7 @@ TraceView obliqueView() {
   glm::vec3 d = glm::normalize(glm::vec3(-0.4f, -1.0f, -0.3f));
   glm::vec3 c(4, 4, 4);
   glm::mat4 view = glm::lookAt(c - d * 20.0f, c, glm::vec3(0, 0, 1));
-  glm::mat4 proj = glm::ortho(-7.0f, 7.0f, -6.0f, 6.0f, 0.0f, 40.0f);
+  glm::mat4 proj = glm::orthoRH_ZO(-7.0f, 7.0f, -6.0f, 6.0f, 0.0f, 40.0f);
   return makeView(proj * view, 37, 29, vs::gpu::VS_ENCODING_NDC_DEPTH, vs::gpu::VS_DEPTH_POINT_ENTRY);
 }
 
@@ -254,7 +254,7 @@ TEST(VulkanTracer, HandComputedHits) {
   const float range = 30.0f;
   glm::vec3 light(1.5f, 12.0f, 1.5f);
   glm::mat4 spotView = glm::lookAt(light, light - glm::vec3(0, 1, 0), glm::vec3(0, 0, -1));
-  glm::mat4 spotProj = glm::perspective(glm::radians(60.0f), 1.0f, 0.1f, range);
+  glm::mat4 spotProj = glm::perspectiveRH_ZO(glm::radians(60.0f), 1.0f, 0.1f, range);
   std::vector<TraceView> views = {
       topDownView(vs::gpu::VS_DEPTH_POINT_ENTRY),
       topDownView(vs::gpu::VS_DEPTH_POINT_VOXEL_CENTER),

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include <glm/gtc/matrix_transform.hpp>
+#define GLM_ENABLE_EXPERIMENTAL
 #include <glm/gtx/component_wise.hpp>
 #include <gtest/gtest.h>
 

@@ -572,7 +572,9 @@ void runLoopBench(const LoopBenchOptions& opt) {
     runBackend(opt, "cpu", *cpu, *loaded, records);
   }
   if (opt.vulkan) {
-    std::unique_ptr<Tracer> vulkan = makeVulkanTracer();
+    VulkanOptions vulkanOptions;
+    vulkanOptions.hostThreads = opt.threads;
+    std::unique_ptr<Tracer> vulkan = makeVulkanTracer(vulkanOptions);
     runBackend(opt, "vulkan", *vulkan, *loaded, records);
   }
 

@@ -316,7 +316,7 @@ class ShardBaker {
       if (options_.backend == "cpu") {
         tracer_ = makeCpuTracer({CpuTracePath::Interleaved, options_.threads});
       } else {
-        tracer_ = openVulkanBackend(options_.device);
+        tracer_ = openVulkanBackend(options_.device, options_.threads);
       }
     }
     if (tracer_->vulkan()) {
@@ -501,8 +501,9 @@ void checkCommandOutputs(const SceneDesc& scene, const std::vector<std::filesyst
 
 namespace {
 
-VulkanOptions vulkanOptions(const std::string& device) {
+VulkanOptions vulkanOptions(const std::string& device, int hostThreads) {
   VulkanOptions o;
+  o.hostThreads = hostThreads;
   if (device.empty()) return o;
   if (device.find_first_not_of("0123456789") == std::string::npos && device.size() < 9) o.deviceIndex = std::stoi(device);
   else o.deviceName = device;
@@ -511,9 +512,9 @@ VulkanOptions vulkanOptions(const std::string& device) {
 
 }  // namespace
 
-std::unique_ptr<Tracer> openVulkanBackend(const std::string& device) {
+std::unique_ptr<Tracer> openVulkanBackend(const std::string& device, int hostThreads) {
   try {
-    return makeVulkanTracer(vulkanOptions(device));
+    return makeVulkanTracer(vulkanOptions(device, hostThreads));
   } catch (const Error& e) {
     if (e.kind() != ErrorKind::Runtime) throw;
     throwRuntime(std::string(e.what()) + " (to trace without Vulkan, use --backend cpu)");
@@ -557,7 +558,7 @@ void runBake(const BakeOptions& options) {
     // The layers alone first: a bake that cannot fit them is refused before the Vulkan driver maps its own share
     // of the address space (under a tight ulimit -v, lavapipe can crash creating its pipeline).
     checkHostMemory(scene, views, options, nullptr);
-    std::unique_ptr<Tracer> tracer = openVulkanBackend(options.device);
+    std::unique_ptr<Tracer> tracer = openVulkanBackend(options.device, options.threads);
     const VulkanDeviceInfo& device = tracer->vulkan()->device();
     checkDeviceFits(scene, views, device);
     checkHostMemory(scene, views, options, &device);

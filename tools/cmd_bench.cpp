@@ -422,7 +422,9 @@ void runFrameBench(const BenchOptions& opt) {
   std::filesystem::remove_all(dir);
   std::vector<std::pair<std::string, std::unique_ptr<Tracer>>> backends;
   backends.emplace_back("cpu", makeCpuTracer({CpuTracePath::Interleaved, opt.threads}));
-  if (opt.vulkan) backends.emplace_back("vulkan", makeVulkanTracer());
+  VulkanOptions vulkanOptions;
+  vulkanOptions.hostThreads = opt.threads;
+  if (opt.vulkan) backends.emplace_back("vulkan", makeVulkanTracer(vulkanOptions));
   std::printf("demo frame 1280x720: sun 3 x 2048^2 cascades, lamp 1024^2, torch 6 x 512^2; %d reps after a warm-up\n",
               opt.reps);
   for (auto& [name, tracer] : backends) {

@@ -12,6 +12,7 @@
 
 #include "compute/cpu/lane_tracer.h"
 #include "compute/cpu/scene_arrays.h"
+#include "compute/shared/camera_rays.h"
 #include "compute/tracer.h"
 #include "lighting/camera.h"
 #include "lighting/light_views.h"

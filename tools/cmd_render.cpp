@@ -173,7 +173,7 @@ void runRender(const RenderCommandOptions& options) {
   if (options.backend == "cpu") {
     tracer = makeCpuTracer({CpuTracePath::Interleaved, options.threads});
   } else {
-    tracer = openVulkanBackend(options.device);
+    tracer = openVulkanBackend(options.device, options.threads);
     checkRenderMemory(scene, render, options, &tracer->vulkan()->device());
   }
   Progress progress("rendering (" + tracer->deviceName() + ")");

@@ -85,7 +85,7 @@ void checkCommandOutputs(const SceneDesc& scene, const std::vector<std::filesyst
 
 // The Vulkan backend on `device` (digits: an index; else part of a name; empty: the best). No usable device is
 // vs::Error(Runtime) with the hint to use --backend cpu.
-std::unique_ptr<Tracer> openVulkanBackend(const std::string& device);
+std::unique_ptr<Tracer> openVulkanBackend(const std::string& device, int hostThreads);
 
 // Prints every Vulkan device (vs::listVulkanDevices order) with the limits the trace depends on, as text or
 // one JSON array. Throws vs::Error(Runtime) when Vulkan cannot start; prints an empty list when it has no device.

@@ -39,13 +39,15 @@
 // double one; GCC 12's vectorizer was seen keeping a glm double-to-float conversion at double precision
 // (-O2, and -O3 -march=native), which made such a low part zero and an anchor differ from the one stored.
 // A volatile store cannot be elided.
+// The host helpers of the shared headers are static inline: a consumer's translation unit, compiled with its
+// own floating-point flags, keeps its own copy instead of lending it to voxshadow's code through the linker.
 namespace vs::gpu {
-inline glm::vec3 roundedToFloat(const glm::dvec3& v) {
+static inline glm::vec3 roundedToFloat(const glm::dvec3& v) {
   volatile float x = static_cast<float>(v.x), y = static_cast<float>(v.y), z = static_cast<float>(v.z);
   return glm::vec3(x, y, z);
 }
 // v as high + low floats (their sum holds v to about 48 bits): high is v rounded, low the rest, rounded.
-inline void splitToFloats(const glm::dvec3& v, glm::vec3& high, glm::vec3& low) {
+static inline void splitToFloats(const glm::dvec3& v, glm::vec3& high, glm::vec3& low) {
   high = roundedToFloat(v);
   low = glm::vec3(v - glm::dvec3(high));
 }

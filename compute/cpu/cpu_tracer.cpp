@@ -17,6 +17,7 @@
 #include "compute/cpu/scene_arrays.h"
 #include "compute/cpu/ray_sources.h"
 #include "compute/cpu/tile_tracer.h"
+#include "compute/tracer.h"
 #include "voxel/error.h"
 
 namespace vs {
@@ -142,6 +143,8 @@ void inArena(int threads, Run&& run) {
 }
 
 }  // namespace
+
+void inHostArena(int threads, const std::function<void()>& run) { inArena(threads, run); }
 
 void CpuTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers, CpuTracePath path,
                       int threads) {

@@ -17,6 +17,7 @@
 #ifndef VOXSHADOW_LANES_H
 #define VOXSHADOW_LANES_H
 
+#include "voxel/exact_fp.h"
 #include "voxel/portable.h"
 
 #ifdef VS_GLSL

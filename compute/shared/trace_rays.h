@@ -78,7 +78,7 @@ VS_NAMESPACE_END
 #ifndef VS_GLSL
 namespace vs::gpu {
 // A ray from an origin in double: the origin is split into two floats before any rounding.
-inline TraceRay makeTraceRay(const glm::dvec3& origin, const glm::dvec3& direction, float tMin, float tMax) {
+static inline TraceRay makeTraceRay(const glm::dvec3& origin, const glm::dvec3& direction, float tMin, float tMax) {
   TraceRay ray{};
   glm::vec3 high, low;
   splitToFloats(origin, high, low);

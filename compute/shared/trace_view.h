@@ -56,7 +56,7 @@ VS_NAMESPACE_END
 #ifndef VS_GLSL
 namespace vs::gpu {
 // The view-projection about the eye: eye-relative world points to clip space, in double.
-inline glm::dmat4 eyeToClip(const glm::dmat4& worldToClip, const glm::dvec3& eye) {
+static inline glm::dmat4 eyeToClip(const glm::dmat4& worldToClip, const glm::dvec3& eye) {
   glm::dmat4 translate(1.0);
   translate[3] = glm::dvec4(eye, 1.0);
   return worldToClip * translate;
@@ -65,8 +65,8 @@ inline glm::dmat4 eyeToClip(const glm::dmat4& worldToClip, const glm::dvec3& eye
 // The descriptor of a whole view (its rectangle covers every texel), from matrices in double: the eye is split
 // into two floats and the eye-relative inverse is taken before any rounding. `eye` is where linear-distance
 // views' rays start (the light); for NDC-depth views any point near the view (its centre) serves.
-inline TraceView makeTraceView(const glm::dmat4& worldToClip, const glm::dvec3& eye, int width, int height,
-                               int encoding, int depthPoint, float range) {
+static inline TraceView makeTraceView(const glm::dmat4& worldToClip, const glm::dvec3& eye, int width,
+                                      int height, int encoding, int depthPoint, float range) {
   TraceView view{};
   view.viewProj = glm::mat4(worldToClip);
   view.clipToEye = glm::mat4(glm::inverse(eyeToClip(worldToClip, eye)));
@@ -81,8 +81,8 @@ inline TraceView makeTraceView(const glm::dmat4& worldToClip, const glm::dvec3& 
 
 // The same, with the eye of linear-distance views given as origin.xyz and their range as origin.w; an NDC-depth
 // view takes the centre of its near plane as its eye.
-inline TraceView makeTraceView(const glm::dmat4& worldToClip, int width, int height, int encoding, int depthPoint,
-                               glm::vec4 origin = glm::vec4(0.0f)) {
+static inline TraceView makeTraceView(const glm::dmat4& worldToClip, int width, int height, int encoding,
+                                      int depthPoint, glm::vec4 origin = glm::vec4(0.0f)) {
   glm::dvec3 eye(origin);
   if (encoding == VS_ENCODING_NDC_DEPTH) {
     glm::dvec4 centre = glm::inverse(worldToClip) * glm::dvec4(0.0, 0.0, 0.0, 1.0);
@@ -92,7 +92,7 @@ inline TraceView makeTraceView(const glm::dmat4& worldToClip, int width, int hei
 }
 
 // The eye of a view as the trace kernels see it (eyeHigh + eyeLow), in double.
-inline glm::dvec3 viewEye(const TraceView& view) {
+static inline glm::dvec3 viewEye(const TraceView& view) {
   return glm::dvec3(glm::vec3(view.eyeHigh)) + glm::dvec3(glm::vec3(view.eyeLow));
 }
 

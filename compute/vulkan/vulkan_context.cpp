@@ -496,6 +496,7 @@ vk::UniqueCommandBuffer VulkanContext::allocateCommandBuffer() {
 }
 
 void VulkanContext::submitAndWait(const std::function<void(VkCommandBuffer)>& record) {
+  std::lock_guard<std::recursive_mutex> hold(submitMutex_);
   vk::UniqueCommandBuffer cmd = allocateCommandBuffer();
   auto bi = vk::make<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
   bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
@@ -514,6 +515,7 @@ void VulkanContext::submitAndWait(const std::function<void(VkCommandBuffer)>& re
 
 void VulkanContext::upload(const vk::Buffer& dst, VkDeviceSize offset, const void* data, VkDeviceSize size) {
   if (size == 0) return;
+  std::lock_guard<std::recursive_mutex> hold(submitMutex_);
   VkDeviceSize stagingSize = std::min(size, kStagingBytes);
   if (!staging_.buffer || staging_.size < stagingSize)
     staging_ = createHostBuffer(stagingSize, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);

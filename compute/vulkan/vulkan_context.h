@@ -97,10 +97,12 @@ class VulkanContext {
   // An R32F 2D-array storage image in VK_IMAGE_LAYOUT_GENERAL. Preconditions: width, height, layers > 0.
   vk::Image createStorageImage(std::uint32_t width, std::uint32_t height, std::uint32_t layers);
 
-  vk::UniqueCommandBuffer allocateCommandBuffer();
-  // Records through `record` into a fresh command buffer, submits it and waits for completion.
+  // Records through `record` into a fresh command buffer, submits it and waits for completion. The queue,
+  // command pool and fence are the context's: submissions from several threads run one after another (a
+  // mutex; `record` may submit again from the same thread).
   void submitAndWait(const std::function<void(VkCommandBuffer)>& record);
-  // Copies bytes into a device buffer through a staging buffer. Precondition: offset + size <= dst.size.
+  // Copies bytes into a device buffer through a staging buffer, as submitAndWait does (one at a time).
+  // Precondition: offset + size <= dst.size.
   void upload(const vk::Buffer& dst, VkDeviceSize offset, const void* data, VkDeviceSize size);
 
   vk::UniqueShaderModule createShaderModule(const std::uint32_t* code, std::size_t bytes);
@@ -111,6 +113,7 @@ class VulkanContext {
   std::shared_ptr<void> shared(const std::string& key, const std::function<std::shared_ptr<void>()>& make);
 
  private:
+  vk::UniqueCommandBuffer allocateCommandBuffer();
   std::uint32_t findMemoryType(std::uint32_t typeBits, VkMemoryPropertyFlags required,
                                VkMemoryPropertyFlags preferred) const;
   vk::Buffer createBuffer(VkDeviceSize size, VkBufferUsageFlags usage, VkMemoryPropertyFlags required,
@@ -134,6 +137,9 @@ class VulkanContext {
   vk::UniqueCommandPool commandPool_;
   vk::UniqueFence fence_;
   vk::Buffer staging_;
+  // Guards the queue, the command pool, the fence and the staging buffer (Vulkan leaves their
+  // synchronisation to the application).
+  std::recursive_mutex submitMutex_;
 };
 
 }  // namespace vs

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <chrono>
 #include <cstring>
@@ -17,6 +18,7 @@
 #include "shadow_trace.spv.h"
 #include "compute/shared/trace_interface.h"
 #include "voxel/error.h"
+#include "voxel/one_call.h"
 
 namespace vs {
 namespace {
@@ -116,9 +118,21 @@ struct UploadRegion {
 // Bytes of one staging buffer of update(): larger copies go in several submissions.
 constexpr VkDeviceSize kUpdateStagingBytes = VkDeviceSize(64) << 20;
 
+// Each call holds the tracer (voxel/one_call.h): its buffers, staging memory and command pool serve one call
+// at a time. vs::Tracer (makeVulkanTracer) runs its calls one after another; this catches direct use of one
+// VulkanTracer from two threads at once.
+class CallInProgress : public OneCallAtATime {
+ public:
+  CallInProgress(std::atomic<bool>& busy, const char* call)
+      : OneCallAtATime(busy, "VulkanTracer", call, "tracer",
+                       "a VulkanTracer serves one call at a time (share it through vs::Tracer, whose calls run one "
+                       "after another)") {}
+};
+
 }  // namespace
 
 struct VulkanTracer::Impl {
+  std::atomic<bool> busy{false};  // CallInProgress
   VulkanOptions options;
   // Shared with what records on this device beside the tracer (the lighting pass), so that the device lives
   // until the last of them is gone, whichever goes first.
@@ -1079,27 +1093,43 @@ struct VulkanTracer::Impl {
 
 VulkanTracer::VulkanTracer(const VulkanOptions& options) : impl_(std::make_unique<Impl>(options)) {}
 VulkanTracer::~VulkanTracer() = default;
-void VulkanTracer::upload(const SceneData& scene) { impl_->upload(scene); }
+void VulkanTracer::upload(const SceneData& scene) {
+  CallInProgress call(impl_->busy, "upload");
+  impl_->upload(scene);
+}
 bool VulkanTracer::boxTableInUse() const { return impl_->boxTableUploaded; }
-void VulkanTracer::upload(const SceneArrays& scene) { impl_->uploadArrays(scene); }
-void VulkanTracer::update(const SceneData& scene, const SceneDelta& delta) { impl_->update(scene, delta); }
+void VulkanTracer::upload(const SceneArrays& scene) {
+  CallInProgress call(impl_->busy, "upload");
+  impl_->uploadArrays(scene);
+}
+void VulkanTracer::update(const SceneData& scene, const SceneDelta& delta) {
+  CallInProgress call(impl_->busy, "update");
+  impl_->update(scene, delta);
+}
 std::uint64_t VulkanTracer::bytesUploaded() const { return impl_->uploadedBytes; }
 int VulkanTracer::bufferGrowths() const { return impl_->growths; }
-void VulkanTracer::uploadInstances(const SceneData& scene) { impl_->uploadInstances(scene); }
+void VulkanTracer::uploadInstances(const SceneData& scene) {
+  CallInProgress call(impl_->busy, "uploadInstances");
+  impl_->uploadInstances(scene);
+}
 TraceStats VulkanTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) {
+  CallInProgress call(impl_->busy, "trace");
   return impl_->trace(views, layers);
 }
 TraceStats VulkanTracer::traceInto(std::span<const gpu::TraceView> views, const DeviceTexelTarget& target) {
+  CallInProgress call(impl_->busy, "traceInto");
   std::vector<ShadowLayer> none;
   return impl_->trace(views, none, &target);
 }
 TraceStats VulkanTracer::traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits) {
+  CallInProgress call(impl_->busy, "traceClosest");
   if (hits.size() != rays.size())
     throwBadInput("traceClosest: " + std::to_string(hits.size()) + " hit records for " + std::to_string(rays.size()) +
                   " rays");
   return impl_->traceRays(gpu::RayKind::Closest, rays, hits.data(), sizeof(gpu::RayHit));
 }
 TraceStats VulkanTracer::traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded) {
+  CallInProgress call(impl_->busy, "traceAny");
   if (occluded.size() != rays.size())
     throwBadInput("traceAny: " + std::to_string(occluded.size()) + " results for " + std::to_string(rays.size()) +
                   " rays");
@@ -1107,6 +1137,7 @@ TraceStats VulkanTracer::traceAny(std::span<const gpu::TraceRay> rays, std::span
 }
 TraceStats VulkanTracer::traceCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
                                      std::span<gpu::RayHit> hits) {
+  CallInProgress call(impl_->busy, "traceCamera");
   const std::uint64_t count = checkCameraTrace(camera, pixels, hits.size());
   gpu::CameraRays record = camera;
   record.size.z = static_cast<std::uint32_t>(pixels.size());
@@ -1115,6 +1146,7 @@ TraceStats VulkanTracer::traceCamera(const gpu::CameraRays& camera, std::span<co
 TraceStats VulkanTracer::traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
                                          std::span<const gpu::VisibilityReceiver> receivers,
                                          std::span<std::uint32_t> occluded) {
+  CallInProgress call(impl_->busy, "traceVisibility");
   const std::uint64_t count = checkVisibilityTrace(frame, lights, receivers, occluded.size());
   gpu::VisibilityRays record = frame;
   record.counts = glm::uvec4(std::uint32_t(lights.size()), std::uint32_t(receivers.size()), 0u, 0u);

@@ -14,7 +14,7 @@
 #include "compute/cpu/cpu_tracer.h"
 #include "compute/scene_data.h"
 #include "compute/trace_types.h"
-#include "compute/shared/camera_rays.h"
+#include "compute/shared/trace_rays.h"
 #include "compute/shared/trace_interface.h"
 #include "compute/vulkan/vulkan_context.h"
 
@@ -34,6 +34,9 @@ struct VulkanOptions {
   // (compute/box_table.h), as the CPU tracer's is, so both walk a scene the same way (a device texel limit or
   // maxBindingBytes below it lowers it here).
   bool boxTable = true;
+  // Host threads for the work around the rays (Tracer::hostThreads: FrameRenderer's G-buffer resolve and
+  // EVSM filter when they run on the host); 0 or less: the arena the caller runs in.
+  int hostThreads = 0;
 };
 
 // Views into the arrays the shader reads, named as its buffers. Lets callers trace arrays they assembled

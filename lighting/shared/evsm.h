@@ -10,6 +10,7 @@
 #ifndef VOXSHADOW_EVSM_H
 #define VOXSHADOW_EVSM_H
 
+#include "voxel/exact_fp.h"
 #include "voxel/portable.h"
 
 VS_NAMESPACE_BEGIN

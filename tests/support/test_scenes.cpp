@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include <glm/gtc/matrix_transform.hpp>
+#define GLM_ENABLE_EXPERIMENTAL
 #include <glm/gtx/component_wise.hpp>
 
 #include "support/test_paths.h"
