@@ -6,29 +6,11 @@
 
 #include <tbb/parallel_for.h>
 
+#include "lighting/cpu_shading.h"
 #include "lighting/evsm.h"
-#include "lighting/shared/evsm.h"
 #include "voxel/error.h"
 
 namespace vs {
-
-namespace gpu {
-
-// The shading code of lighting/shared/shading.h, compiled as members of a struct whose members carry the
-// buffers' names: the C++ side of "one source, two compilers".
-struct CpuShading {
-  const float* shadowTexels;
-  const ShadeView* shadeViews;
-  const ShadeLight* shadeLights;
-  const uint* rayVisibility;
-  float* shadowTerms;
-  const vec4* momentTexels;
-  vec4 vsLoadMoments(int i) const { return momentTexels[i]; }
-  ShadeView vsLoadView(int i) const { return shadeViews[i]; }
-#include "lighting/shared/shading.h"
-};
-
-}  // namespace gpu
 
 namespace {
 

@@ -28,7 +28,9 @@ struct LightingPipelines {
   std::shared_ptr<VulkanContext> owner;  // first member: the device outlives every object below
   VulkanContext& context;
   std::mutex mutex;  // guards the variants and the moment pipeline, made by whichever pass asks first
-  vk::ComputePipeline general;           // the general lighting shader; its layouts serve the variants too
+  // The general lighting shader's layouts, which serve its variants too, and the shader's pipeline.
+  vk::UniqueDescriptorSetLayout setLayout;
+  vk::UniquePipelineLayout layout;
   std::shared_ptr<vk::UniquePipeline> generalPipeline;
   vk::UniqueShaderModule module;         // the general lighting shader
   vk::UniqueShaderModule variantModule;  // the build its variants specialise, made with the first variant
@@ -54,43 +56,13 @@ struct LightingPipelines {
     auto dl = vk::make<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
     dl.bindingCount = std::uint32_t(bindings.size());
     dl.pBindings = bindings.data();
-    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
-    vk::check(vkCreateDescriptorSetLayout(dev, &dl, nullptr, &setLayout), "vkCreateDescriptorSetLayout");
-    general.setLayout = vk::UniqueDescriptorSetLayout(dev, setLayout);
+    VkDescriptorSetLayout made = VK_NULL_HANDLE;
+    vk::check(vkCreateDescriptorSetLayout(dev, &dl, nullptr, &made), "vkCreateDescriptorSetLayout");
+    setLayout = vk::UniqueDescriptorSetLayout(dev, made);
     module = context.createShaderModule(deferred_lighting, sizeof deferred_lighting);
-    general.layout = makeLayout(sizeof(gpu::ShadePush));
-    generalPipeline = std::make_shared<vk::UniquePipeline>(makePipeline(module.get(), general.layout.get()));
+    layout = context.createPipelineLayout(setLayout.get(), sizeof(gpu::ShadePush));
+    generalPipeline = std::make_shared<vk::UniquePipeline>(context.createComputePipeline(module.get(), layout.get()));
     compiled = 1;
-  }
-
-  // A pipeline layout over the pass's descriptor set with a push block of `pushBytes`.
-  vk::UniquePipelineLayout makeLayout(std::uint32_t pushBytes) {
-    VkDescriptorSetLayout setLayout = general.setLayout.get();
-    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes};
-    auto pl = vk::make<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
-    pl.setLayoutCount = 1;
-    pl.pSetLayouts = &setLayout;
-    pl.pushConstantRangeCount = 1;
-    pl.pPushConstantRanges = &range;
-    VkPipelineLayout layout = VK_NULL_HANDLE;
-    vk::check(vkCreatePipelineLayout(context.device(), &pl, nullptr, &layout), "vkCreatePipelineLayout");
-    return vk::UniquePipelineLayout(context.device(), layout);
-  }
-
-  // A compute pipeline of `shader` with `layout`, its specialisation constants given (null: the defaults).
-  vk::UniquePipeline makePipeline(VkShaderModule shader, VkPipelineLayout layout,
-                                  const VkSpecializationInfo* constants = nullptr) {
-    auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
-    ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
-    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    ci.stage.module = shader;
-    ci.stage.pName = "main";
-    ci.stage.pSpecializationInfo = constants;
-    ci.layout = layout;
-    VkPipeline p = VK_NULL_HANDLE;
-    vk::check(vkCreateComputePipelines(context.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p),
-              "vkCreateComputePipelines");
-    return vk::UniquePipeline(context.device(), p);
   }
 
   bool made(const LightingVariant& shape) {
@@ -115,7 +87,7 @@ struct LightingPipelines {
     for (std::uint32_t i = 0; i < entries.size(); ++i)
       entries[i] = {i, std::uint32_t(i * sizeof(std::int32_t)), sizeof(std::int32_t)};
     VkSpecializationInfo info{std::uint32_t(entries.size()), entries.data(), sizeof constants, constants.data()};
-    auto made = std::make_shared<vk::UniquePipeline>(makePipeline(variantModule.get(), general.layout.get(), &info));
+    auto made = std::make_shared<vk::UniquePipeline>(context.createComputePipeline(variantModule.get(), layout.get(), &info));
     ++compiled;
     if (variants.size() == kKeptVariants) variants.erase(variants.begin());
     variants.emplace_back(variant, std::move(made));
@@ -126,8 +98,8 @@ struct LightingPipelines {
     std::lock_guard lock(mutex);
     if (momentPipeline) return;
     momentModule = context.createShaderModule(evsm_moments, sizeof evsm_moments);
-    momentLayout = makeLayout(sizeof(gpu::EvsmPush));
-    momentPipeline = makePipeline(momentModule.get(), momentLayout.get());
+    momentLayout = context.createPipelineLayout(setLayout.get(), sizeof(gpu::EvsmPush));
+    momentPipeline = context.createComputePipeline(momentModule.get(), momentLayout.get());
   }
 };
 
@@ -162,7 +134,7 @@ struct VulkanLighting::Impl {
     VkDescriptorPool pool = VK_NULL_HANDLE;
     vk::check(vkCreateDescriptorPool(dev, &dp, nullptr, &pool), "vkCreateDescriptorPool");
     descriptorPool = vk::UniqueDescriptorPool(dev, pool);
-    VkDescriptorSetLayout setLayout = pipelines->general.setLayout.get();
+    VkDescriptorSetLayout setLayout = pipelines->setLayout.get();
     auto ai = vk::make<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
     ai.descriptorPool = pool;
     ai.descriptorSetCount = 1;
@@ -446,7 +418,7 @@ struct VulkanLighting::Impl {
     }
     // Held for the dispatch: another pass on the device may drop it from the kept variants meanwhile.
     const std::shared_ptr<vk::UniquePipeline> shadePipeline = shade ? pipelines->pipelineOf(wantedVariant) : nullptr;
-    const VkPipelineLayout layout = pipelines->general.layout.get();
+    const VkPipelineLayout layout = pipelines->layout.get();
     const MomentWork* moments = momentWork;
     momentWork = nullptr;
     if (moments) {

@@ -8,29 +8,13 @@
 
 #include <gtest/gtest.h>
 
+#include "lighting/cpu_shading.h"
 #include "lighting/deferred.h"
-#include "lighting/shared/evsm.h"
-
-namespace vs::gpu {
-
-// shading.h compiled as members of a struct, as the CPU pass does (lighting/deferred.cpp); only the plane
-// functions are called, so the buffers stay empty.
-struct PlaneProbe {
-  const float* shadowTexels = nullptr;
-  const ShadeView* shadeViews = nullptr;
-  const ShadeLight* shadeLights = nullptr;
-  const uint* rayVisibility = nullptr;
-  float* shadowTerms = nullptr;
-  vec4 vsLoadMoments(int) const { return vec4(0.0f); }
-  ShadeView vsLoadView(int i) const { return shadeViews[i]; }
-#include "lighting/shared/shading.h"
-};
-
-}  // namespace vs::gpu
 
 namespace {
 
-using vs::gpu::PlaneProbe;
+// shading.h as the CPU pass compiles it; only the plane functions are called, so its buffers stay empty.
+using PlaneProbe = vs::gpu::CpuShading;
 using vs::gpu::ShadeView;
 
 // An orthographic view about its eye looking along `forward`: clip x, y in [-1, 1] over the half extents,

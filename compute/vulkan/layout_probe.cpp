@@ -42,22 +42,9 @@ LayoutProbeResult probeGpuLayouts(const VulkanOptions& options) {
   VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
   vk::check(vkCreateDescriptorSetLayout(dev, &dl, nullptr, &setLayout), "vkCreateDescriptorSetLayout");
   pipeline.setLayout = vk::UniqueDescriptorSetLayout(dev, setLayout);
-  auto pl = vk::make<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
-  pl.setLayoutCount = 1;
-  pl.pSetLayouts = &setLayout;
-  VkPipelineLayout layout = VK_NULL_HANDLE;
-  vk::check(vkCreatePipelineLayout(dev, &pl, nullptr, &layout), "vkCreatePipelineLayout");
-  pipeline.layout = vk::UniquePipelineLayout(dev, layout);
+  pipeline.layout = context.createPipelineLayout(setLayout, 0);
   vk::UniqueShaderModule module = context.createShaderModule(layout_probe, sizeof(layout_probe));
-  auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
-  ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
-  ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-  ci.stage.module = module.get();
-  ci.stage.pName = "main";
-  ci.layout = layout;
-  VkPipeline p = VK_NULL_HANDLE;
-  vk::check(vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &ci, nullptr, &p), "vkCreateComputePipelines");
-  pipeline.pipeline = vk::UniquePipeline(dev, p);
+  pipeline.pipeline = context.createComputePipeline(module.get(), pipeline.layout.get());
 
   VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kStructs};
   auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
@@ -88,7 +75,7 @@ LayoutProbeResult probeGpuLayouts(const VulkanOptions& options) {
 
   context.submitAndWait([&](VkCommandBuffer cmd) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline.get());
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &set, 0, nullptr);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &set, 0, nullptr);
     vkCmdDispatch(cmd, 1, 1, 1);
     auto toHost = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
     toHost.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;

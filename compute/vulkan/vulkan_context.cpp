@@ -531,6 +531,32 @@ void VulkanContext::upload(const vk::Buffer& dst, VkDeviceSize offset, const voi
   }
 }
 
+vk::UniquePipelineLayout VulkanContext::createPipelineLayout(VkDescriptorSetLayout setLayout, std::uint32_t pushBytes) {
+  VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes};
+  auto pl = vk::make<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
+  pl.setLayoutCount = 1;
+  pl.pSetLayouts = &setLayout;
+  pl.pushConstantRangeCount = pushBytes > 0 ? 1u : 0u;
+  pl.pPushConstantRanges = pushBytes > 0 ? &range : nullptr;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  vk::check(vkCreatePipelineLayout(device_.get(), &pl, nullptr, &layout), "vkCreatePipelineLayout");
+  return vk::UniquePipelineLayout(device_.get(), layout);
+}
+
+vk::UniquePipeline VulkanContext::createComputePipeline(VkShaderModule shader, VkPipelineLayout layout,
+                                                       const VkSpecializationInfo* constants, VkPipelineCache cache) {
+  auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
+  ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
+  ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  ci.stage.module = shader;
+  ci.stage.pName = "main";
+  ci.stage.pSpecializationInfo = constants;
+  ci.layout = layout;
+  VkPipeline p = VK_NULL_HANDLE;
+  vk::check(vkCreateComputePipelines(device_.get(), cache, 1, &ci, nullptr, &p), "vkCreateComputePipelines");
+  return vk::UniquePipeline(device_.get(), p);
+}
+
 vk::UniqueShaderModule VulkanContext::createShaderModule(const std::uint32_t* code, std::size_t bytes) {
   auto ci = vk::make<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
   ci.codeSize = bytes;

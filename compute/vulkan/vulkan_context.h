@@ -106,6 +106,13 @@ class VulkanContext {
   void upload(const vk::Buffer& dst, VkDeviceSize offset, const void* data, VkDeviceSize size);
 
   vk::UniqueShaderModule createShaderModule(const std::uint32_t* code, std::size_t bytes);
+  // A compute pipeline layout over one descriptor set layout, with a push block of `pushBytes` (0: none).
+  vk::UniquePipelineLayout createPipelineLayout(VkDescriptorSetLayout setLayout, std::uint32_t pushBytes);
+  // A compute pipeline of `shader`'s "main" with `layout`, its specialisation constants given (null: the
+  // shader's defaults), through `cache` (VK_NULL_HANDLE: none).
+  vk::UniquePipeline createComputePipeline(VkShaderModule shader, VkPipelineLayout layout,
+                                           const VkSpecializationInfo* constants = nullptr,
+                                           VkPipelineCache cache = VK_NULL_HANDLE);
 
   // An object every user of this device shares (compiled pipelines), named by `key`: the one made by an
   // earlier call while any caller still holds it, else a new one from `make`, whose type is the caller's.

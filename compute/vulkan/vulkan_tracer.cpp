@@ -233,15 +233,7 @@ struct VulkanTracer::Impl {
     vk::check(vkCreateDescriptorSetLayout(dev, &dl, nullptr, &setLayout), "vkCreateDescriptorSetLayout");
     pipeline.setLayout = vk::UniqueDescriptorSetLayout(dev, setLayout);
 
-    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(TracePush)};
-    auto pl = vk::make<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
-    pl.setLayoutCount = 1;
-    pl.pSetLayouts = &setLayout;
-    pl.pushConstantRangeCount = 1;
-    pl.pPushConstantRanges = &range;
-    VkPipelineLayout layout = VK_NULL_HANDLE;
-    vk::check(vkCreatePipelineLayout(dev, &pl, nullptr, &layout), "vkCreatePipelineLayout");
-    pipeline.layout = vk::UniquePipelineLayout(dev, layout);
+    pipeline.layout = context.createPipelineLayout(setLayout, sizeof(TracePush));
 
     std::filesystem::path dir = options.cacheDir.empty() ? defaultPipelineCacheDir() : options.cacheDir;
     cache = std::make_unique<DiskPipelineCache>(context, dir);
@@ -294,17 +286,7 @@ struct VulkanTracer::Impl {
                                            {gpu::VS_SPEC_DEPTH_AT_CENTER, 8, sizeof(VkBool32)},
                                            {gpu::VS_SPEC_RAY_KIND, 12, sizeof(std::int32_t)}};
     VkSpecializationInfo spec{4, entries, sizeof values, values};
-    auto ci = vk::make<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
-    ci.stage = vk::make<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
-    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    ci.stage.module = module.get();
-    ci.stage.pName = "main";
-    ci.stage.pSpecializationInfo = &spec;
-    ci.layout = pipeline.layout.get();
-    VkPipeline p = VK_NULL_HANDLE;
-    vk::check(vkCreateComputePipelines(context.device(), cache->get(), 1, &ci, nullptr, &p),
-              "vkCreateComputePipelines");
-    return vk::UniquePipeline(context.device(), p);
+    return context.createComputePipeline(module.get(), pipeline.layout.get(), &spec, cache->get());
   }
 
   // Whether any split array spans more than one binding after upload().

@@ -27,17 +27,18 @@ layout(push_constant) uniform PushBlock { ShadePush push; };
 
 vec4 vsLoadMoments(int i) { return vec4(momentPositive[i], momentNegative[i]); }
 
-// ShadeView record i from its VS_SHADE_VIEW_TEXELS texels, in the member order of shading_layout.h.
+// ShadeView record i from its VS_SHADE_VIEW_TEXELS texels, each member at the texel VS_SHADE_VIEW_TEXEL_* names.
 vec4 vsViewTexel(int i, int t) { return uintBitsToFloat(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + t)); }
 ShadeView vsLoadView(int i) {
   ShadeView v;
-  v.eyeToClip = mat4(vsViewTexel(i, 0), vsViewTexel(i, 1), vsViewTexel(i, 2), vsViewTexel(i, 3));
-  v.clipToEye = mat4(vsViewTexel(i, 4), vsViewTexel(i, 5), vsViewTexel(i, 6), vsViewTexel(i, 7));
-  v.eye = vsViewTexel(i, 8);
-  v.eyeLow = vsViewTexel(i, 9);
-  v.split = vsViewTexel(i, 10);
-  v.info = ivec4(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + 11));
-  v.trace = ivec4(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + 12));
+  const int m = VS_SHADE_VIEW_TEXEL_EYE_TO_CLIP, n = VS_SHADE_VIEW_TEXEL_CLIP_TO_EYE;
+  v.eyeToClip = mat4(vsViewTexel(i, m), vsViewTexel(i, m + 1), vsViewTexel(i, m + 2), vsViewTexel(i, m + 3));
+  v.clipToEye = mat4(vsViewTexel(i, n), vsViewTexel(i, n + 1), vsViewTexel(i, n + 2), vsViewTexel(i, n + 3));
+  v.eye = vsViewTexel(i, VS_SHADE_VIEW_TEXEL_EYE);
+  v.eyeLow = vsViewTexel(i, VS_SHADE_VIEW_TEXEL_EYE_LOW);
+  v.split = vsViewTexel(i, VS_SHADE_VIEW_TEXEL_SPLIT);
+  v.info = ivec4(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + VS_SHADE_VIEW_TEXEL_INFO));
+  v.trace = ivec4(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + VS_SHADE_VIEW_TEXEL_TRACE));
   return v;
 }
 

@@ -13,7 +13,7 @@
 //     ShadeView.trace.w
 //   with VS_LIGHTING_VARIANT defined (the shader build that pipeline variants specialise):
 //     vsSpecializedLightCount, vsSpecializedMode, vsSpecializedRaytraced, vsSpecializedLight (see vsShadePixel)
-// The includer includes lighting/shared/evsm.h first. C++ includes this inside a struct that holds those members (lighting/deferred.cpp).
+// The includer includes lighting/shared/evsm.h first. C++ includes this inside a struct that holds those members (lighting/cpu_shading.h).
 #ifndef VOXSHADOW_SHADING_H
 #define VOXSHADOW_SHADING_H
 
@@ -267,7 +267,7 @@ float vsViewFilter(VS_IN(ShadeLight) light, VS_IN(ShadeView) view, vec3 p, vec3 
   r.base = ivec2(floor(texel));
   if (r.plane == VS_RECEIVER_PLANE_AFFINE) r.slope = vsPlaneSlope(view, r.base, r.rel, n);
   float texelWorld = vsTexelWorld(view, lightDistance);
-  if (kind == VS_FILTER_HARD) return vsCompare(view, ivec2(floor(texel)), r);
+  if (kind == VS_FILTER_HARD) return vsCompare(view, r.base, r);
   if (kind == VS_FILTER_PCF3) return vsFilterBox(view, texel, r, 1);
   if (kind == VS_FILTER_PCF5) return vsFilterBox(view, texel, r, 2);
   if (kind == VS_FILTER_EVSM) return vsFilterEvsm(view, texel, r, light.evsm);

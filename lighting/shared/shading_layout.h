@@ -74,6 +74,15 @@ struct ShadeLight {
 // (lighting/shaders/deferred_lighting.comp, vsLoadView): a CPU device (llvmpipe) loads a storage buffer one
 // lane at a time, a texel fetch as one gather. Each record is this many texels.
 const int VS_SHADE_VIEW_TEXELS = 13;
+// The texel of a ShadeView record that holds each member (a mat4: its four columns from that texel on), as the
+// shader's vsLoadView reads them; the C++ side checks each against the member's offset.
+const int VS_SHADE_VIEW_TEXEL_EYE_TO_CLIP = 0;
+const int VS_SHADE_VIEW_TEXEL_CLIP_TO_EYE = 4;
+const int VS_SHADE_VIEW_TEXEL_EYE = 8;
+const int VS_SHADE_VIEW_TEXEL_EYE_LOW = 9;
+const int VS_SHADE_VIEW_TEXEL_SPLIT = 10;
+const int VS_SHADE_VIEW_TEXEL_INFO = 11;
+const int VS_SHADE_VIEW_TEXEL_TRACE = 12;
 
 struct ShadeView {
   mat4 eyeToClip;  // clip = eyeToClip * (p - eye): the view-projection about its eye
@@ -157,6 +166,15 @@ VS_OFFSET_CHECK(ShadeView, eyeLow, 144);
 VS_OFFSET_CHECK(ShadeView, split, 160);
 VS_OFFSET_CHECK(ShadeView, info, 176);
 VS_OFFSET_CHECK(ShadeView, trace, 192);
+static_assert(offsetof(ShadeView, eyeToClip) == 16 * VS_SHADE_VIEW_TEXEL_EYE_TO_CLIP &&
+                  offsetof(ShadeView, clipToEye) == 16 * VS_SHADE_VIEW_TEXEL_CLIP_TO_EYE &&
+                  offsetof(ShadeView, eye) == 16 * VS_SHADE_VIEW_TEXEL_EYE &&
+                  offsetof(ShadeView, eyeLow) == 16 * VS_SHADE_VIEW_TEXEL_EYE_LOW &&
+                  offsetof(ShadeView, split) == 16 * VS_SHADE_VIEW_TEXEL_SPLIT &&
+                  offsetof(ShadeView, info) == 16 * VS_SHADE_VIEW_TEXEL_INFO &&
+                  offsetof(ShadeView, trace) == 16 * VS_SHADE_VIEW_TEXEL_TRACE &&
+                  VS_SHADE_VIEW_TEXEL_TRACE + 1 == VS_SHADE_VIEW_TEXELS,
+              "ShadeView: the texel of each member, as vsLoadView reads the record");
 VS_LAYOUT_CHECK(ShadePush, 64);
 VS_OFFSET_CHECK(ShadePush, sky, 16);
 VS_OFFSET_CHECK(ShadePush, size, 32);
