@@ -626,7 +626,7 @@ void registerBake(CLI::App& app) {
       ->check(CLI::IsMember({"cpu", "vulkan"}))
       ->capture_default_str();
   sub->add_option("--preview", options->preview, "Also write a PNG contact sheet of the layers");
-  addThreadsOption(sub, options->threads, "CPU threads (0: all)", 0);
+  addThreadsOption(sub, options->threads, "CPU threads: the CPU backend's tracing and either backend's host work (0: all)", 0);
   sub->add_option_function<std::string>(
          "--memory-budget",
          [options](const std::string& text) { options->memoryBudget = parseByteSize(text, "--memory-budget"); },

@@ -215,7 +215,7 @@ void registerRender(CLI::App& app) {
   sub->add_option("--debug", options->debug, "Debug view: cascades, shadow, normals, layer=N (a shadow layer's depths) or moments=N (its EVSM moments)");
   sub->add_option("--width", options->width, "Image width (default: the camera's)");
   sub->add_option("--height", options->height, "Image height (default: the camera's)");
-  addThreadsOption(sub, options->threads, "CPU threads (0: all)", 0);
+  addThreadsOption(sub, options->threads, "CPU threads: the CPU backend's tracing and either backend's host work (0: all)", 0);
   sub->add_option("--device", options->device, "Vulkan device: an index or part of a name (default: best)");
   sub->add_option_function<std::string>(
          "--memory-budget",

@@ -69,7 +69,9 @@ struct VulkanContextOptions {
 };
 
 // Owns the instance, device, compute queue and one command pool. Not copyable or movable (the debug
-// messenger points at it). All methods are called from one thread at a time, except validationMessages().
+// messenger points at it). Threads: submitAndWait and upload run one after another (a mutex over the queue,
+// the pool, the fence and the staging buffer), validationMessages and shared may be called from any thread;
+// the create* calls make objects of their own and may too (Vulkan's object creation is thread-safe).
 class VulkanContext {
  public:
   // Throws vs::Error(Runtime) when no device exists, when validation is requested but
