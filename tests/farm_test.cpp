@@ -47,19 +47,6 @@ fs::path writeDemo(const fs::path& dir) {
   return dir / "demo.json";
 }
 
-// The demo with each light's layers at a quarter of their side (sun 512, lamp 256, torch 128): the same
-// views, tiles and shard plans in kind, a sixteenth of the texels, for the tests that bake it many times.
-// (Farm.CpuAndVulkanShardsMixedMergeIntoTheSingleBake bakes the demo at its own size.)
-fs::path writeQuarterDemo(const fs::path& dir) {
-  const fs::path demo = writeDemo(dir);
-  nlohmann::json scene = nlohmann::json::parse(fileBytes(demo));
-  for (nlohmann::json& light : scene["lights"])
-    if (light.contains("shadow")) light["shadow"]["resolution"] = light["shadow"]["resolution"].get<int>() / 4;
-  const fs::path out = dir / "demo_quarter.json";
-  std::ofstream(out) << scene.dump(2);
-  return out;
-}
-
 // The demo's geometry under other lights: four cascades of 256 texels, two point lights whose faces (64 and 32
 // texels) are smaller than a tile (one measured at voxel centres), and no spot light.
 fs::path writePointsAndCascadesScene(const fs::path& demoScene) {
@@ -168,7 +155,7 @@ TEST(Farm, PlansPutEveryTexelInExactlyOneShardOfAboutEqualCost) {
 // N shards baked on this machine (bake --shards N --parts DIR) merge into the single bake's very files.
 void expectLocalMergesEqualTheBake(const std::string& backend) {
   const fs::path dir = vs::test::scratchDir("farm_local_" + backend);
-  const fs::path demo = writeQuarterDemo(dir);
+  const fs::path demo = writeDemo(dir);
   const fs::path other = writePointsAndCascadesScene(demo);
   for (const fs::path& scene : {demo, other}) {
     const std::string stem = scene.stem().string();
@@ -357,7 +344,7 @@ TEST(Farm, BadShardOptionsAreRefusedBeforeAnyWork) {
 
 TEST(Farm, ARerunBakesOnlyTheMissingOrStaleShards) {
   const fs::path dir = vs::test::scratchDir("farm_resume");
-  const fs::path demo = writeQuarterDemo(dir);
+  const fs::path demo = writeDemo(dir);
   const fs::path whole = dir / "whole.exr";
   bakeWhole(demo, whole, "cpu");
   const fs::path partsDir = dir / "parts";
@@ -414,7 +401,7 @@ TEST(Farm, ARerunBakesOnlyTheMissingOrStaleShards) {
 
 TEST(Farm, SlurmArrayWithARequeuedShardEqualsTheLocalBake) {
   const fs::path dir = vs::test::scratchDir("farm_slurm");
-  const fs::path demo = writeQuarterDemo(dir);
+  const fs::path demo = writeDemo(dir);
   const fs::path whole = dir / "whole.exr";
   bakeWhole(demo, whole, "cpu");
   std::string log;
