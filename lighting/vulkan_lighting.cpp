@@ -57,8 +57,8 @@ struct LightingPipelines {
     dl.bindingCount = std::uint32_t(bindings.size());
     dl.pBindings = bindings.data();
     VkDescriptorSetLayout made = VK_NULL_HANDLE;
-    vk::check(vkCreateDescriptorSetLayout(dev, &dl, nullptr, &made), "vkCreateDescriptorSetLayout");
-    setLayout = vk::UniqueDescriptorSetLayout(dev, made);
+    vk::check(context.functions().vkCreateDescriptorSetLayout(dev, &dl, context.functions().allocator, &made), "vkCreateDescriptorSetLayout");
+    setLayout = vk::UniqueDescriptorSetLayout(context.functions(), dev, made);
     module = context.createShaderModule(deferred_lighting, sizeof deferred_lighting);
     layout = context.createPipelineLayout(setLayout.get(), sizeof(gpu::ShadePush));
     generalPipeline = std::make_shared<vk::UniquePipeline>(context.createComputePipeline(module.get(), layout.get()));
@@ -132,14 +132,14 @@ struct VulkanLighting::Impl {
     dp.poolSizeCount = std::uint32_t(sizes.size());
     dp.pPoolSizes = sizes.data();
     VkDescriptorPool pool = VK_NULL_HANDLE;
-    vk::check(vkCreateDescriptorPool(dev, &dp, nullptr, &pool), "vkCreateDescriptorPool");
-    descriptorPool = vk::UniqueDescriptorPool(dev, pool);
+    vk::check(context.functions().vkCreateDescriptorPool(dev, &dp, context.functions().allocator, &pool), "vkCreateDescriptorPool");
+    descriptorPool = vk::UniqueDescriptorPool(context.functions(), dev, pool);
     VkDescriptorSetLayout setLayout = pipelines->setLayout.get();
     auto ai = vk::make<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
     ai.descriptorPool = pool;
     ai.descriptorSetCount = 1;
     ai.pSetLayouts = &setLayout;
-    vk::check(vkAllocateDescriptorSets(dev, &ai, &descriptorSet), "vkAllocateDescriptorSets");
+    vk::check(context.functions().vkAllocateDescriptorSets(dev, &ai, &descriptorSet), "vkAllocateDescriptorSets");
   }
   // Binding b holds at least `bytes` (never 0: an empty array binds a 16-byte buffer); true when it was replaced.
   bool reserve(std::uint32_t b, std::size_t bytes) {
@@ -186,7 +186,7 @@ struct VulkanLighting::Impl {
       if (b == gpu::VS_LIGHTING_BINDING_VIEWS) writes[b].pTexelBufferView = &viewHandle;
       else writes[b].pBufferInfo = &infos[b];
     }
-    vkUpdateDescriptorSets(context.device(), std::uint32_t(writes.size()), writes.data(), 0, nullptr);
+    context.functions().vkUpdateDescriptorSets(context.device(), std::uint32_t(writes.size()), writes.data(), 0, nullptr);
   }
 
   bool holdsStore(std::size_t texels) const {
@@ -430,19 +430,19 @@ struct VulkanLighting::Impl {
       auto toShader = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
       toShader.srcAccessMask = VK_ACCESS_HOST_WRITE_BIT;
       toShader.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
-      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_HOST_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &toShader, 0,
+      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_HOST_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &toShader, 0,
                            nullptr, 0, nullptr);
       if (moments) recordMoments(cmd, *moments);
       if (shade) {
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, shadePipeline->get());
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptorSet, 0, nullptr);
-        vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::ShadePush), &push);
-        vkCmdDispatch(cmd, groupsX, groupsY, 1);
+        context.functions().vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, shadePipeline->get());
+        context.functions().vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &descriptorSet, 0, nullptr);
+        context.functions().vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::ShadePush), &push);
+        context.functions().vkCmdDispatch(cmd, groupsX, groupsY, 1);
       }
       auto toHost = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
       toHost.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
       toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
+      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
                            nullptr, 0, nullptr);
     });
   }
@@ -454,8 +454,8 @@ struct VulkanLighting::Impl {
     between.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
     between.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
     const VkPipelineLayout momentLayout = pipelines->momentLayout.get();
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines->momentPipeline.get());
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentLayout, 0, 1, &descriptorSet, 0, nullptr);
+    context.functions().vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines->momentPipeline.get());
+    context.functions().vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentLayout, 0, 1, &descriptorSet, 0, nullptr);
     const std::uint32_t maxGroups = std::min<std::uint32_t>(context.info().maxWorkGroupCount[0], 65535u);
     for (int pass = 0; pass < 2; ++pass) {
       const std::size_t invocations = pass == 0 ? work.horizontal : work.vertical;
@@ -464,9 +464,9 @@ struct VulkanLighting::Impl {
       const std::uint32_t groupsY = std::uint32_t((groups + groupsX - 1) / groupsX);
       gpu::EvsmPush push{};
       push.pass = glm::ivec4(pass, int(work.jobs.size()), int(invocations), int(groupsX * gpu::VS_EVSM_GROUP_SIZE));
-      vkCmdPushConstants(cmd, momentLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
-      vkCmdDispatch(cmd, groupsX, groupsY, 1);
-      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1,
+      context.functions().vkCmdPushConstants(cmd, momentLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+      context.functions().vkCmdDispatch(cmd, groupsX, groupsY, 1);
+      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1,
                            &between, 0, nullptr, 0, nullptr);
     }
   }

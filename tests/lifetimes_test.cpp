@@ -15,6 +15,7 @@
 #include "lighting/renderer.h"
 #include "lighting/scene.h"
 #include "lighting/scene_file.h"
+#include "support/demo_frames.h"
 #include "support/test_paths.h"
 #include "voxel/demo_world.h"
 #include "voxel/error.h"
@@ -24,17 +25,9 @@ namespace {
 
 const char* const kBackends[] = {"cpu", "vulkan"};
 
-// The demo scene with its shadow layers at `resolution`, its camera stepped by `cameraStep` along x: two
-// calls with other arguments give two scenes whose frames differ.
-Scene demoScene(const std::string& dir, int resolution, float cameraStep) {
-  const std::vector<std::string> written = writeDemoWorld(test::scratchDir(dir));
-  SceneDesc desc = parseSceneFile(written.back());
-  for (LightDesc& l : desc.lights)
-    if (l.shadow) l.shadow->resolution = resolution;
-  desc.camera->position.x += cameraStep;
-  desc.camera->target.x += cameraStep;
-  return Scene::load(std::move(desc));
-}
+using test::demoScene;
+using test::expectNoValidationMessages;
+using test::sameBytes;
 
 RenderOptions smallFrame() {
   RenderOptions o;
@@ -50,11 +43,6 @@ std::unique_ptr<Tracer> tracerFor(const std::string& backend) {
   return makeVulkanTracer(o);  // no device: fails here, loudly
 }
 
-template <class T>
-bool sameBytes(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
-}
-
 // The frame and layers `kept` rendered are what a new renderer on a tracer of its own gives for `scene`.
 void expectSameAsNewRenderer(const Scene& scene, const FrameRenderer& kept, const RenderedFrame& frame,
                              const std::string& backend, const std::string& what) {
@@ -68,12 +56,6 @@ void expectSameAsNewRenderer(const Scene& scene, const FrameRenderer& kept, cons
   ASSERT_EQ(a.size(), b.size()) << backend << ", " << what;
   for (std::size_t i = 0; i < a.size(); ++i)
     EXPECT_TRUE(sameBytes(a[i].texels, b[i].texels)) << backend << ", " << what << ": layer " << i;
-}
-
-void expectNoValidationMessages(Tracer& tracer) {
-  if (VulkanTracer* v = tracer.vulkan()) {
-    EXPECT_TRUE(v->validationMessages().empty()) << v->validationMessages().front();
-  }
 }
 
 // Tracing the views of a frame whose scene is gone reads the arrays the tracer keeps: the texels equal those

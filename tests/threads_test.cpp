@@ -20,6 +20,7 @@
 #include "compute/vulkan/vulkan_tracer.h"
 #include "lighting/renderer.h"
 #include "lighting/scene.h"
+#include "support/demo_frames.h"
 #include "support/test_paths.h"
 #include "voxel/demo_world.h"
 #include "voxel/error.h"
@@ -31,15 +32,9 @@ const char* const kBackends[] = {"cpu", "vulkan"};
 
 // The demo scene with small layers, its camera stepped by `cameraStep` along x: scenes with other steps give
 // other frames.
-Scene demoScene(const std::string& dir, float cameraStep) {
-  const std::vector<std::string> written = writeDemoWorld(test::scratchDir(dir));
-  SceneDesc desc = parseSceneFile(written.back());
-  for (LightDesc& l : desc.lights)
-    if (l.shadow) l.shadow->resolution = 128;
-  desc.camera->position.x += cameraStep;
-  desc.camera->target.x += cameraStep;
-  return Scene::load(std::move(desc));
-}
+Scene demoScene(const std::string& dir, float cameraStep) { return test::demoScene(dir, 128, cameraStep); }
+
+using test::expectNoValidationMessages;
 
 RenderOptions smallFrame() {
   RenderOptions o;
@@ -54,12 +49,6 @@ std::unique_ptr<Tracer> tracerFor(const std::string& backend, int hostThreads = 
   o.validation = true;
   o.hostThreads = hostThreads;
   return makeVulkanTracer(o);  // no device: fails here, loudly
-}
-
-void expectNoValidationMessages(Tracer& tracer) {
-  if (VulkanTracer* v = tracer.vulkan()) {
-    EXPECT_TRUE(v->validationMessages().empty()) << v->validationMessages().front();
-  }
 }
 
 bool sameColor(const RenderedFrame& a, const RenderedFrame& b) {

@@ -645,9 +645,11 @@ std::vector<pid_t> childrenOfThisThread() {
 
 }  // namespace
 
-// One long-lived checking process (as the fuzz target uses) gives every file the verdict and message a fork
-// per file gives, a file on which OpenVDB's reader crashes included; the next file gets a fresh process; one
-// killed between two files is replaced without blaming the next; turning it off ends and reaps it.
+// One long-lived checking process (as the CLI and the fuzz target use) gives every file the verdict and message
+// a fork per file gives, a file on which OpenVDB's reader crashes included; it is forked when turned on,
+// outlives the readers that crash (it forks one per file and parses nothing itself) and keeps one thread, so
+// that its forks never copy a lock held by another thread; one killed between two files is replaced without
+// blaming the next; turning it off ends and reaps it.
 // The crash file overruns a heap buffer inside OpenVDB: which signal ends the checking process (SIGSEGV, or
 // SIGABRT from malloc's checks) depends on what the overrun hits, so verdicts are compared without it.
 static std::string withoutSignal(std::string text) {
@@ -677,6 +679,8 @@ TEST(VdbLoad, PersistentCheckingProcessGivesTheSameVerdicts) {
   ASSERT_TRUE(childrenOfThisThread().empty());
 
   vs::setPersistentCheckingProcess(true);
+  const std::vector<pid_t> started = childrenOfThisThread();
+  ASSERT_EQ(started.size(), 1u) << "the checking process starts when turned on";
   int crashes = 0;
   for (std::size_t i = 0; i < files.size(); ++i) {
     const std::string got = outcomeOf(files[i]);
@@ -690,6 +694,12 @@ TEST(VdbLoad, PersistentCheckingProcessGivesTheSameVerdicts) {
   EXPECT_EQ(crashes, 4);
   const std::vector<pid_t> children = childrenOfThisThread();
   ASSERT_EQ(children.size(), 1u) << "one checking process, alive between files";
+  EXPECT_EQ(children[0], started[0]) << "a reader's crash does not end the checking process";
+  {
+    std::ifstream status("/proc/" + std::to_string(children[0]) + "/status");
+    std::string text((std::istreambuf_iterator<char>(status)), std::istreambuf_iterator<char>());
+    EXPECT_TRUE(vs::test::contains(text, "\nThreads:\t1\n")) << text;
+  }
   // Killed while idle: the next file is checked by a new process, not refused.
   ASSERT_EQ(::kill(children[0], SIGKILL), 0);
   for (int i = 0; i < 200 && fs::exists("/proc/" + std::to_string(children[0]) + "/status"); ++i) {

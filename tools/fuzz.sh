@@ -39,9 +39,9 @@ fi
 
 source "$root/tests/sanitizers/options.sh"
 export LSAN_OPTIONS="${LSAN_OPTIONS/lsan.supp/lsan-fuzz.supp}"
-# A small quarantine keeps the fuzzing process's memory small: the .vdb target forks a checking child
-# (vs::LoadOptions::checkInChildProcess) after every input that kills one, and each fork copies the page tables
-# and then the written pages of the parent (the default 256 MB quarantine doubled the cost of an execution).
+# A small quarantine keeps the fuzzing process's memory small (the default 256 MB quarantine doubled the cost of
+# an execution when the .vdb target forked itself for its checks; it now forks one small checking process
+# before fuzzing, vs::setPersistentCheckingProcess).
 export ASAN_OPTIONS="$ASAN_OPTIONS:quarantine_size_mb=16"
 jobs=1
 if [ "$mode" = long ]; then
@@ -96,8 +96,8 @@ for name in "${names[@]}"; do
   echo "fuzz: $name ($mode): ${budget[*]}, corpus $work/corpus, seeds ${seeds[*]}"
   rc=0
   runs=()
-  # How far 45 s gets the vdb target varies from machine to machine (about 100 to 200 executions a second
-  # under ASan here, 8 when every input forked its own checking process): a fixed count makes its short pass
+  # How far 45 s gets the vdb target varies from machine to machine (about 250 executions a second under
+  # ASan on a 2-core Intel Xeon, 8 when every input forked the fuzzing process): a fixed count makes its short pass
   # replay the same mutations every time, so that a finding is the same finding on every machine.
   if [ "$mode" = short ] && [ "$name" = vdb ]; then runs=(-runs="${VOXSHADOW_FUZZ_VDB_RUNS:-2000}"); fi
   job_logs=("$work/log.txt")

@@ -14,6 +14,7 @@
 #include "tools/atomic_file.h"
 #include "tools/commands.h"
 #include "voxel/error.h"
+#include "voxel/voxel_object.h"
 
 namespace {
 
@@ -77,6 +78,12 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   // Before anything can write a temporary: a command ended by a signal removes its temporaries first.
   vs::installSignalCleanup();
+  // Before any other thread works: .vdb checks must never fork a process whose threads may hold locks.
+  try {
+    vs::startVdbCheckingProcess();
+  } catch (const vs::Error&) {
+    // Checks fork per file instead; a fork that fails there is reported with the file it was for.
+  }
   vs::cli::registerInfo(app);
   vs::cli::registerDemo(app);
   vs::cli::registerBake(app);

@@ -97,8 +97,7 @@ struct ReadProgress {
   char name[128] = {};     // its name, cut to fit
   int done = 0;            // 1: every grid was read; 2: the reader refused the file with an exception
   char refusal[8192] = {}; // done == 2: the error message, cut to fit
-  std::uint64_t taken = 0; // the persistent child: serial number of the last request it took
-  int retiring = 0;        // the persistent child: 1 when it ends after this answer
+  std::uint64_t taken = 0; // the checking process: serial number of the last request it took
 };
 
 // A value OpenVDB copied from the file without checking it, invalid for its type. The message names the grid
@@ -289,13 +288,14 @@ namespace vs {
 
 namespace {
 
-// Puts a freshly forked checking child in its state. Die with the parent; default actions for the signals
+// Puts a freshly forked checking child in its state. Die with the parent (PR_SET_PDEATHSIG: with the thread
+// that forked it, unless `dieWithParentThread` is false); default actions for the signals
 // the parent handles (its handlers remove the parent's temporaries), none blocked, so that an interrupt of
 // the process group ends the child too. Quiet: OpenVDB's warnings come again from the parent's own reading,
 // and the C library's or a sanitizer's report of the reader's failure would only repeat the error the parent
 // gives.
-void prepareCheckingChild(pid_t parent) {
-  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+void prepareCheckingChild(pid_t parent, bool dieWithParentThread = true) {
+  if (dieWithParentThread) ::prctl(PR_SET_PDEATHSIG, SIGKILL);
   if (::getppid() != parent) ::_exit(3);
   for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGALRM})
     std::signal(sig, SIG_DFL);
@@ -391,21 +391,28 @@ void checkInChildProcess(const std::string& bytes, const std::string& path) {
   verdictOf(path, progress, waited, status);
 }
 
-// --- The persistent checking child (setPersistentCheckingProcess) ---
+// --- The checking process (setPersistentCheckingProcess) ---
 //
-// One child serves check after check over a socket pair: the parent sends a request (header, path, bytes),
-// the child parses the bytes as checkInChild does, records the verdict in the shared ReadProgress and
-// answers with one byte. A child that dies while reading a file gives the error checkInChildProcess gives;
-// the next check starts a fresh child. The child never frees a grid (see GridReader::read), so it retires,
-// after answering, once it has served kChecksPerChild files or grown by kGrowthPerChild bytes.
-
-constexpr std::uint64_t kChecksPerChild = 2048;
-constexpr std::uint64_t kGrowthPerChild = std::uint64_t(512) << 20;
+// One process, forked before the caller's other threads work, serves check after check over a socket pair:
+// the parent sends a request (header, path, bytes), the checking process forks a reader for it, which parses
+// the bytes as checkInChild does and records its verdict in the shared ReadProgress, waits for the reader and
+// answers with the reader's wait status. The checking process itself never parses a file, starts no thread
+// and holds nothing between requests, so every fork it makes is a fork of a one-thread process (a fork of a
+// multithreaded process may copy a lock that another thread held: the reader then waits forever, as with
+// the allocator of clang 14's AddressSanitizer, which has no fork handlers) and it never needs replacing
+// unless something kills it.
 
 struct CheckRequest {
   std::uint64_t serial;
   std::uint64_t pathSize;
   std::uint64_t byteCount;
+};
+
+// The checking process's answer: the reader's waitpid result and status, or the errno of a fork that failed.
+struct CheckAnswer {
+  std::int32_t waited;
+  std::int32_t status;
+  std::int32_t forkError;  // 0: a reader ran
 };
 
 bool readFully(int fd, void* data, std::size_t size) {
@@ -433,42 +440,48 @@ bool sendFully(int fd, const void* data, std::size_t size) {
   return true;
 }
 
-// The child's peak resident size: it frees little, so the peak is about what it holds.
-std::uint64_t residentBytes() {
-  struct rusage usage {};
-  if (::getrusage(RUSAGE_SELF, &usage) != 0) return 0;
-  return std::uint64_t(usage.ru_maxrss) * 1024;
-}
-
 [[noreturn]] void serveChecks(int fd, ReadProgress* progress, pid_t parent) {
   // Above the standard streams, which prepareCheckingChild points at /dev/null (a parent that closed them
   // can get the socket there).
   if (fd < 3) fd = ::fcntl(fd, F_DUPFD, 3);
   if (fd < 0) ::_exit(4);
-  prepareCheckingChild(parent);
-  // Nothing else the parent had open stays open for the child's whole life (a pipe's write end would keep
+  // Not tied to the thread that started it (a TBB worker that ran a check may end long before the process):
+  // the end of its socket, when the parent ends, ends it; its readers die with it.
+  prepareCheckingChild(parent, /*dieWithParentThread=*/false);
+  // Nothing else the parent had open stays open for the process's whole life (a pipe's write end would keep
   // its reader from seeing the end).
   ::syscall(SYS_close_range, 3u, unsigned(fd) - 1, 0u);
   ::syscall(SYS_close_range, unsigned(fd) + 1, ~0u, 0u);
-  const std::uint64_t residentAtStart = residentBytes();
-  auto* keep = new openvdb::GridPtrVec;
-  std::string path, bytes;  // kept from one request to the next, so that their memory is reused
-  for (std::uint64_t served = 1;; ++served) {
+  std::signal(SIGCHLD, SIG_DFL);  // a parent that ignores it would have the readers reaped unseen
+  const pid_t self = ::getpid();
+  std::string path, bytes;
+  for (;;) {
     CheckRequest request{};
+    if (!readFully(fd, &request, sizeof request)) ::_exit(0);  // the parent closed its end, or ended
     try {
-      if (!readFully(fd, &request, sizeof request)) ::_exit(0);  // the parent closed its end, or ended
       path.resize(request.pathSize);
       bytes.resize(request.byteCount);
     } catch (...) {
-      ::_exit(4);  // no memory for the request: the parent starts another child and asks it again
+      ::_exit(4);  // no memory for the request: the parent starts another checking process and asks again
     }
     if (!readFully(fd, path.data(), path.size()) || !readFully(fd, bytes.data(), bytes.size())) ::_exit(0);
     progress->taken = request.serial;
-    checkBytes(bytes, path, progress, keep);
-    const bool retire = served >= kChecksPerChild || residentBytes() > residentAtStart + kGrowthPerChild;
-    progress->retiring = retire ? 1 : 0;
-    const char answer = 1;
-    if (!sendFully(fd, &answer, 1) || retire) ::_exit(0);
+    CheckAnswer answer{-1, 0, 0};
+    const pid_t reader = ::fork();
+    if (reader == 0) {
+      ::close(fd);
+      checkInChild(bytes, path, progress, self);
+    }
+    if (reader > 0) {
+      int status = 0;
+      answer.waited = std::int32_t(waitForChild(reader, &status));
+      answer.status = std::int32_t(status);
+    } else {
+      answer.forkError = errno;  // no reader: the parent refuses the file with the fork's failure
+    }
+    // The file's bytes are not kept between requests: a large file would otherwise stay resident here.
+    std::string().swap(bytes);
+    if (!sendFully(fd, &answer, sizeof answer)) ::_exit(0);
   }
 }
 
@@ -481,44 +494,36 @@ class PersistentChecker {
     if (lock.owns_lock() && owner_ == ::getpid()) stop();
   }
 
+  // Starts the checking process now, when none is running. `what` names the cause in an error.
+  void start(const std::string& what) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    startLocked(what);
+  }
+
   void check(const std::string& bytes, const std::string& path) {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (owner_ != ::getpid()) {
-      // A fork of the process that started the child: the socket and the shared record are that process's.
-      if (fd_ >= 0) ::close(fd_);
-      fd_ = -1;
-      child_ = -1;
-      progress_ = nullptr;
-      owner_ = ::getpid();
-    }
-    if (!progress_) progress_ = mapProgress(path);
-    // A child can have died between two checks (killed, or its parent thread ended): one that had not yet
-    // taken this file is replaced once, without blaming the file.
+    // A checking process can have died (killed): it is replaced, once per file, without blaming the file.
     for (int attempt = 0;; ++attempt) {
-      if (child_ < 0) start(path);
+      startLocked(path);
       const std::uint64_t serial = ++serial_;
       progress_->grid = -1;
       progress_->name[0] = 0;
       progress_->done = 0;
       progress_->refusal[0] = 0;
-      progress_->retiring = 0;
       const CheckRequest request{serial, path.size(), bytes.size()};
-      char answer = 0;
+      CheckAnswer answer{};
       const bool answered = sendFully(fd_, &request, sizeof request) && sendFully(fd_, path.data(), path.size()) &&
-                            sendFully(fd_, bytes.data(), bytes.size()) && readFully(fd_, &answer, 1);
-      if (answered && progress_->taken == serial && progress_->done != 0) {
-        if (progress_->retiring) stop();
-        verdictOf(path, progress_, -1, 0);  // done 1 returns, done 2 throws the child's refusal
+                            sendFully(fd_, bytes.data(), bytes.size()) && readFully(fd_, &answer, sizeof answer);
+      if (answered && progress_->taken == serial) {
+        if (answer.forkError != 0)
+          throwRuntime(path + ": cannot start a process to check the file (" + std::strerror(answer.forkError) + ")");
+        verdictOf(path, progress_, answer.waited, answer.status);
         return;
       }
-      int status = 0;
-      const pid_t waited = stop(&status);
-      if (progress_->taken == serial) {  // it died reading this file
-        verdictOf(path, progress_, waited, status);
-        return;
-      }
-      if (attempt > 0)
-        throwRuntime(path + ": the process checking VDB files ended before it read the file");
+      // The checking process itself ended (killed): it parses nothing, so the file is not to blame; a new one
+      // checks it once more.
+      stop();
+      if (attempt > 0) throwRuntime(path + ": the process checking VDB files ended twice while checking the file");
     }
   }
 
@@ -534,7 +539,21 @@ class PersistentChecker {
     (void)stop(&status);
   }
 
-  void start(const std::string& path) {
+  void startLocked(const std::string& what) {
+    if (owner_ != ::getpid()) {
+      // A fork of the process that started the checking process: the socket and the shared record are
+      // that process's.
+      if (fd_ >= 0) ::close(fd_);
+      fd_ = -1;
+      child_ = -1;
+      progress_ = nullptr;
+      owner_ = ::getpid();
+    }
+    if (!progress_) progress_ = mapProgress(what);
+    if (child_ < 0) spawn(what);
+  }
+
+  void spawn(const std::string& path) {
     int fds[2];
     if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, fds) != 0)
       throwRuntime(path + ": cannot start a process to check the file (" + std::strerror(errno) + ")");
@@ -607,9 +626,16 @@ std::string readWholeFile(const std::string& path) {
 }  // namespace
 
 void setPersistentCheckingProcess(bool on) {
+  if (on) {
+    // Its readers inherit OpenVDB's registries from it.
+    ensureOpenVdbInitialized();
+    persistentChecker().start("the VDB checking process");
+  }
   persistentChecks.store(on);
   if (!on) persistentChecker().shutdown();
 }
+
+void startVdbCheckingProcess() { setPersistentCheckingProcess(true); }
 
 openvdb::GridPtrVec readVdbGrids(const std::string& path, bool checkInChild) {
   ensureOpenVdbInitialized();

@@ -27,16 +27,21 @@ void ensureOpenVdbInitialized();
 // unchecked) is refused as damaged, naming the grid and the value.
 openvdb::GridPtrVec readVdbGrids(const std::string& path, bool checkInChild = true);
 
-// Off by default. On: the checks of readVdbGrids go to one long-lived child process, forked at the first
-// check and again after one dies or retires (after 2,048 files or 512 MiB of growth: it never frees what it
-// read), instead of a fork per file; verdicts and error messages stay the same, a child that dies while
-// reading a file included, and a child found dead before it took a file is replaced without blaming the file.
-// For a process that checks many small untrusted files one after another, such as the vdb fuzz target, where
-// forking the large sanitized process cost more than the check. Not for the CLI or a long-running
-// application: the child keeps, copy-on-write, the memory the process had when it forked (memory freed later
-// stays resident in the child), and PR_SET_PDEATHSIG ends it with the thread that forked it (a check running
-// for another thread at that moment would be refused as a crash). Checks from several threads take turns;
-// at exit, or when turned off, the child is ended and waited for.
+// Off by default. On: a checking process is forked now, and the checks of readVdbGrids go to it; it forks a
+// reader per file (the reader parses the bytes and dies, if it dies, in place of a child of this process)
+// and, never parsing anything itself, stays a one-thread process however many threads this one starts later.
+// Verdicts and error messages are those of a fork per file. Two reasons to turn it on:
+// - Precondition: call it before any other thread of this process works (at the top of main, before TBB,
+//   OpenVDB or Vulkan start work; log4cplus, which OpenVDB links, starts a pool at load that waits idle). A fork per file forks whatever threads the process has by then, and a lock another
+//   thread held at that moment (an allocator's) stays held in the child: with a C library that makes malloc
+//   fork-safe this works, with clang 14's AddressSanitizer (no fork handlers) the child can wait forever.
+//   The CLI turns it on first thing.
+// - A process that checks many small untrusted files one after another (the vdb fuzz target): a fork of the
+//   small checking process costs less than a fork of the large sanitized one.
+// A checking process found dead (killed) is replaced at the next check, forked from this process as it is
+// then (the hazard above, once), and a check it died in is asked again of the new one without blaming the
+// file. It ends when this process ends or turns it off (the end of its socket), whichever thread started it.
+// Checks from several threads take turns. The file's bytes are copied to it for the check and not kept.
 void setPersistentCheckingProcess(bool on);
 
 // The human-readable solid rule for a grid, or an empty string when its type has none.

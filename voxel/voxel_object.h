@@ -64,6 +64,13 @@ struct VoxelObject {
 // data on which OpenVDB's reader crashes. An empty grid loads as an empty object.
 VoxelObject loadVdb(const std::string& path, const LoadOptions& options = {});
 
+// Forks, now, the process that checks .vdb files for every later load with checkInChildProcess, so that
+// checks never fork this process once it has threads (a fork copies a lock another thread held, and the
+// child can then wait on it forever; see setPersistentCheckingProcess in vdb_rules.h). Precondition: no other
+// thread of this process is working yet: call it at the top of main. Without it each check forks this process. Throws
+// vs::Error(Runtime) when the process cannot be started; later checks then fork per file.
+void startVdbCheckingProcess();
+
 }  // namespace vs
 
 #endif

@@ -40,8 +40,8 @@ LayoutProbeResult probeGpuLayouts(const VulkanOptions& options) {
   dl.bindingCount = kStructs;
   dl.pBindings = bindings.data();
   VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
-  vk::check(vkCreateDescriptorSetLayout(dev, &dl, nullptr, &setLayout), "vkCreateDescriptorSetLayout");
-  pipeline.setLayout = vk::UniqueDescriptorSetLayout(dev, setLayout);
+  vk::check(context.functions().vkCreateDescriptorSetLayout(dev, &dl, context.functions().allocator, &setLayout), "vkCreateDescriptorSetLayout");
+  pipeline.setLayout = vk::UniqueDescriptorSetLayout(context.functions(), dev, setLayout);
   pipeline.layout = context.createPipelineLayout(setLayout, 0);
   vk::UniqueShaderModule module = context.createShaderModule(layout_probe, sizeof(layout_probe));
   pipeline.pipeline = context.createComputePipeline(module.get(), pipeline.layout.get());
@@ -52,14 +52,14 @@ LayoutProbeResult probeGpuLayouts(const VulkanOptions& options) {
   dp.poolSizeCount = 1;
   dp.pPoolSizes = &size;
   VkDescriptorPool rawPool = VK_NULL_HANDLE;
-  vk::check(vkCreateDescriptorPool(dev, &dp, nullptr, &rawPool), "vkCreateDescriptorPool");
-  vk::UniqueDescriptorPool pool(dev, rawPool);
+  vk::check(context.functions().vkCreateDescriptorPool(dev, &dp, context.functions().allocator, &rawPool), "vkCreateDescriptorPool");
+  vk::UniqueDescriptorPool pool(context.functions(), dev, rawPool);
   auto ai = vk::make<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
   ai.descriptorPool = rawPool;
   ai.descriptorSetCount = 1;
   ai.pSetLayouts = &setLayout;
   VkDescriptorSet set = VK_NULL_HANDLE;
-  vk::check(vkAllocateDescriptorSets(dev, &ai, &set), "vkAllocateDescriptorSets");
+  vk::check(context.functions().vkAllocateDescriptorSets(dev, &ai, &set), "vkAllocateDescriptorSets");
   std::array<VkDescriptorBufferInfo, kStructs> infos{};
   std::array<VkWriteDescriptorSet, kStructs> writes{};
   for (std::uint32_t i = 0; i < kStructs; ++i) {
@@ -71,16 +71,16 @@ LayoutProbeResult probeGpuLayouts(const VulkanOptions& options) {
     writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
     writes[i].pBufferInfo = &infos[i];
   }
-  vkUpdateDescriptorSets(dev, kStructs, writes.data(), 0, nullptr);
+  context.functions().vkUpdateDescriptorSets(dev, kStructs, writes.data(), 0, nullptr);
 
   context.submitAndWait([&](VkCommandBuffer cmd) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline.get());
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &set, 0, nullptr);
-    vkCmdDispatch(cmd, 1, 1, 1);
+    context.functions().vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline.get());
+    context.functions().vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &set, 0, nullptr);
+    context.functions().vkCmdDispatch(cmd, 1, 1, 1);
     auto toHost = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
     toHost.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
     toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
+    context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
                          nullptr, 0, nullptr);
   });
 

@@ -39,6 +39,7 @@ std::filesystem::path defaultPipelineCacheDir() {
 }
 
 DiskPipelineCache::DiskPipelineCache(VulkanContext& context, const std::filesystem::path& dir) : context_(context) {
+  if (context.hostPipelineCache() != VK_NULL_HANDLE) return;  // the host's cache: the host keeps it
   const VulkanDeviceInfo& info = context.info();
   if (!dir.empty()) {
     char version[16];
@@ -72,29 +73,30 @@ DiskPipelineCache::DiskPipelineCache(VulkanContext& context, const std::filesyst
     ci.pInitialData = data.data();
   }
   VkPipelineCache cache = VK_NULL_HANDLE;
-  VkResult r = vkCreatePipelineCache(context.device(), &ci, nullptr, &cache);
+  VkResult r = context.functions().vkCreatePipelineCache(context.device(), &ci, context.functions().allocator, &cache);
   if (r != VK_SUCCESS && valid) {
     ci.initialDataSize = 0;
     ci.pInitialData = nullptr;
     valid = false;
-    r = vkCreatePipelineCache(context.device(), &ci, nullptr, &cache);
+    r = context.functions().vkCreatePipelineCache(context.device(), &ci, context.functions().allocator, &cache);
   }
   vk::check(r, "vkCreatePipelineCache");
-  cache_ = vk::UniquePipelineCache(context.device(), cache);
+  cache_ = vk::UniquePipelineCache(context.functions(), context.device(), cache);
   warm_ = valid && data.size() > kHeaderBytes;
   empty_ = valid && data.size() <= kHeaderBytes;
 }
 
 bool DiskPipelineCache::save() {
+  if (!cache_) return true;  // the host's cache is the host's to keep
   if (file_.empty()) {
     lastError_ = "no cache directory (set VOXSHADOW_CACHE_DIR, XDG_CACHE_HOME or HOME)";
     return false;
   }
   if (unusable_) return false;  // lastError_ says why
   std::size_t size = 0;
-  vk::check(vkGetPipelineCacheData(context_.device(), cache_.get(), &size, nullptr), "vkGetPipelineCacheData");
+  vk::check(context_.functions().vkGetPipelineCacheData(context_.device(), cache_.get(), &size, nullptr), "vkGetPipelineCacheData");
   std::vector<char> data(size);
-  vk::check(vkGetPipelineCacheData(context_.device(), cache_.get(), &size, data.data()), "vkGetPipelineCacheData");
+  vk::check(context_.functions().vkGetPipelineCacheData(context_.device(), cache_.get(), &size, data.data()), "vkGetPipelineCacheData");
   data.resize(size);
   std::error_code ec;
   std::filesystem::create_directories(file_.parent_path(), ec);

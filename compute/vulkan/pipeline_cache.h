@@ -17,10 +17,12 @@ class DiskPipelineCache {
  public:
   // Loads the file when present, a regular file of sane size, and made by this device and driver; a
   // missing, foreign, corrupt or non-regular file (FIFO, directory) gives an empty cache (never an error;
-  // the non-regular one is reported by save() and lastError()). Precondition: context outlives this object.
+  // the non-regular one is reported by save() and lastError()). On a host's device that gave its own
+  // pipeline cache (VulkanHostDevice::pipelineCache) that cache is used and no file is read or written.
+  // Precondition: context outlives this object.
   DiskPipelineCache(VulkanContext& context, const std::filesystem::path& dir);
 
-  VkPipelineCache get() const { return cache_.get(); }
+  VkPipelineCache get() const { return cache_ ? cache_.get() : context_.hostPipelineCache(); }
   // True when a cache file for this device with pipeline data in it was loaded.
   bool warm() const { return warm_; }
   // True when the loaded file was valid but held a header only (drivers such as lavapipe cache nothing).

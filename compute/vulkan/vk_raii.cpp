@@ -1,4 +1,4 @@
-// vk_raii.cpp: result checking and the extension-function destroyers.
+// vk_raii.cpp: result checking.
 #include "compute/vulkan/vk_raii.h"
 
 #include <string>
@@ -33,15 +33,6 @@ void check(VkResult result, const char* call) {
   if (result == VK_SUCCESS) return;
   throwRuntime(std::string("Vulkan: ") + call + " failed with " + resultName(result) + " (" +
                std::to_string(static_cast<int>(result)) + ")");
-}
-
-void UniqueMessenger::reset() {
-  if (messenger_ != VK_NULL_HANDLE) {
-    auto destroy = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
-        vkGetInstanceProcAddr(instance_, "vkDestroyDebugUtilsMessengerEXT"));
-    if (destroy) destroy(instance_, messenger_, nullptr);
-  }
-  messenger_ = VK_NULL_HANDLE;
 }
 
 }  // namespace vs::vk

@@ -10,6 +10,7 @@
 #include <dlfcn.h>
 #include <link.h>
 
+#include "compute/shared/trace_interface.h"
 #include "voxel/error.h"
 #include "voxel/sanitizers.h"
 
@@ -34,6 +35,17 @@ void keepLoadedLibrariesMapped() {
     // RTLD_NOLOAD only takes a reference to what is loaded already; RTLD_NODELETE keeps it past every dlclose.
     for (const std::string& name : names) (void)dlopen(name.c_str(), RTLD_LAZY | RTLD_NOLOAD | RTLD_NODELETE);
   }
+}
+
+// One refusal for a device, listing everything it lacks.
+std::string cannotRun(const std::string& device, const std::vector<std::string>& missing) {
+  std::string text = "Vulkan device " + device + " cannot run voxshadow; it lacks:";
+  for (const std::string& m : missing) text += "\n  - " + m;
+  return text;
+}
+
+std::string versionText(std::uint32_t v) {
+  return std::to_string(VK_API_VERSION_MAJOR(v)) + "." + std::to_string(VK_API_VERSION_MINOR(v));
 }
 
 const char* kValidationLayer = "VK_LAYER_KHRONOS_validation";
@@ -96,11 +108,11 @@ int typeRank(VulkanDeviceType t) {
   }
 }
 
-VulkanDeviceInfo describe(VkPhysicalDevice pd, std::uint32_t index) {
+VulkanDeviceInfo describe(const vk::Functions& fn, VkPhysicalDevice pd, std::uint32_t index) {
   VulkanDeviceInfo info;
   info.index = index;
   VkPhysicalDeviceProperties base{};
-  vkGetPhysicalDeviceProperties(pd, &base);
+  fn.vkGetPhysicalDeviceProperties(pd, &base);
 
   auto props = vk::make<VkPhysicalDeviceProperties2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2);
   auto m3 = vk::make<VkPhysicalDeviceMaintenance3Properties>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES);
@@ -108,7 +120,7 @@ VulkanDeviceInfo describe(VkPhysicalDevice pd, std::uint32_t index) {
   props.pNext = &m3;
   // Driver properties are core only from Vulkan 1.2; chaining them on older devices is invalid.
   if (base.apiVersion >= VK_API_VERSION_1_2) m3.pNext = &driver;
-  vkGetPhysicalDeviceProperties2(pd, &props);
+  fn.vkGetPhysicalDeviceProperties2(pd, &props);
   const VkPhysicalDeviceProperties& p = props.properties;
 
   info.name = p.deviceName;
@@ -130,19 +142,19 @@ VulkanDeviceInfo describe(VkPhysicalDevice pd, std::uint32_t index) {
   for (int i = 0; i < 3; ++i) info.maxWorkGroupCount[i] = p.limits.maxComputeWorkGroupCount[i];
   info.timestampPeriodNs = p.limits.timestampPeriod;
   VkPhysicalDeviceFeatures features{};
-  vkGetPhysicalDeviceFeatures(pd, &features);
+  fn.vkGetPhysicalDeviceFeatures(pd, &features);
   info.shaderFloat64 = features.shaderFloat64 == VK_TRUE;
 
   VkPhysicalDeviceMemoryProperties mem{};
-  vkGetPhysicalDeviceMemoryProperties(pd, &mem);
+  fn.vkGetPhysicalDeviceMemoryProperties(pd, &mem);
   for (std::uint32_t h = 0; h < mem.memoryHeapCount; ++h)
     if (mem.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
       info.deviceLocalBytes = std::max<std::uint64_t>(info.deviceLocalBytes, mem.memoryHeaps[h].size);
 
   std::uint32_t familyCount = 0;
-  vkGetPhysicalDeviceQueueFamilyProperties(pd, &familyCount, nullptr);
+  fn.vkGetPhysicalDeviceQueueFamilyProperties(pd, &familyCount, nullptr);
   std::vector<VkQueueFamilyProperties> families(familyCount);
-  vkGetPhysicalDeviceQueueFamilyProperties(pd, &familyCount, families.data());
+  fn.vkGetPhysicalDeviceQueueFamilyProperties(pd, &familyCount, families.data());
   // Prefer a compute family without graphics (an async-compute queue), else any compute family.
   for (int pass = 0; pass < 2 && !info.hasComputeQueue; ++pass) {
     for (std::uint32_t f = 0; f < familyCount; ++f) {
@@ -171,14 +183,15 @@ std::string deviceList(const std::vector<VulkanDeviceInfo>& devices) {
 }
 
 // The instance's physical devices (into `handles`) and their descriptions, in the loader's order.
-std::vector<VulkanDeviceInfo> enumerateDevices(VkInstance instance, std::vector<VkPhysicalDevice>& handles) {
+std::vector<VulkanDeviceInfo> enumerateDevices(const vk::Functions& fn, VkInstance instance,
+                                               std::vector<VkPhysicalDevice>& handles) {
   std::uint32_t count = 0;
-  vk::check(vkEnumeratePhysicalDevices(instance, &count, nullptr), "vkEnumeratePhysicalDevices");
+  vk::check(fn.vkEnumeratePhysicalDevices(instance, &count, nullptr), "vkEnumeratePhysicalDevices");
   handles.resize(count);
-  vk::check(vkEnumeratePhysicalDevices(instance, &count, handles.data()), "vkEnumeratePhysicalDevices");
+  vk::check(fn.vkEnumeratePhysicalDevices(instance, &count, handles.data()), "vkEnumeratePhysicalDevices");
   handles.resize(count);
   std::vector<VulkanDeviceInfo> devices;
-  for (std::uint32_t i = 0; i < count; ++i) devices.push_back(describe(handles[i], i));
+  for (std::uint32_t i = 0; i < count; ++i) devices.push_back(describe(fn, handles[i], i));
   return devices;
 }
 
@@ -203,10 +216,13 @@ std::vector<VulkanDeviceInfo> listVulkanDevices() {
   // The loader reports a missing driver as an incompatible one: that is "no device", not a failure.
   if (r == VK_ERROR_INCOMPATIBLE_DRIVER) return {};
   vk::check(r, "vkCreateInstance");
-  vk::UniqueInstance instance(raw);
+  vk::Functions fn;
+  const std::vector<std::string> missing = fn.loadInstance(vkGetInstanceProcAddr, raw);
+  vk::UniqueInstance instance(raw, fn.vkDestroyInstance);
+  if (!missing.empty()) throwRuntime("Vulkan: the loader has no " + missing.front());
   keepLoadedLibrariesMapped();
   std::vector<VkPhysicalDevice> handles;
-  return enumerateDevices(instance.get(), handles);
+  return enumerateDevices(fn, instance.get(), handles);
 }
 
 std::size_t chooseVulkanDevice(const std::vector<VulkanDeviceInfo>& devices, int deviceIndex,
@@ -235,6 +251,64 @@ std::size_t chooseVulkanDevice(const std::vector<VulkanDeviceInfo>& devices, int
     throwRuntime(std::string(kNoDevice) + ": no device has both a compute queue and shaderFloat64, which the trace "
                  "shader needs; devices:" + deviceList(devices));
   return best;
+}
+
+std::vector<std::string> missingVulkanRequirements(const vk::Functions& fn, VkPhysicalDevice physicalDevice,
+                                                   std::uint32_t instanceApiVersion,
+                                                   const VkPhysicalDeviceFeatures& enabledFeatures,
+                                                   std::uint32_t queueFamily,
+                                                   const std::vector<std::string>& entryPointsMissing) {
+  std::vector<std::string> missing;
+  VkPhysicalDeviceProperties props{};
+  fn.vkGetPhysicalDeviceProperties(physicalDevice, &props);
+  // Instance-level 1.1 calls (vkGetPhysicalDeviceProperties2) need an instance made for 1.1, and the shaders
+  // are SPIR-V 1.3 for a 1.1 device.
+  if (instanceApiVersion < VK_API_VERSION_1_1)
+    missing.push_back("Vulkan 1.1 on the instance (VulkanHostDevice::instanceApiVersion is " +
+                      versionText(instanceApiVersion) + ")");
+  if (props.apiVersion < VK_API_VERSION_1_1)
+    missing.push_back("Vulkan 1.1 on the device (it reports " + versionText(props.apiVersion) + ")");
+  // The trace shader divides and takes square roots through double, so that they round as the CPU's do
+  // (compute/shared/lanes.h, VS_DIV).
+  VkPhysicalDeviceFeatures supported{};
+  fn.vkGetPhysicalDeviceFeatures(physicalDevice, &supported);
+  if (!supported.shaderFloat64) missing.push_back("the feature shaderFloat64 (the device does not support it)");
+  else if (!enabledFeatures.shaderFloat64)
+    missing.push_back("the feature shaderFloat64 (supported, but not enabled when the VkDevice was created)");
+  std::uint32_t familyCount = 0;
+  fn.vkGetPhysicalDeviceQueueFamilyProperties(physicalDevice, &familyCount, nullptr);
+  std::vector<VkQueueFamilyProperties> families(familyCount);
+  fn.vkGetPhysicalDeviceQueueFamilyProperties(physicalDevice, &familyCount, families.data());
+  if (queueFamily >= familyCount)
+    missing.push_back("queue family " + std::to_string(queueFamily) + " (the device has " + std::to_string(familyCount) +
+                      ")");
+  else if (!(families[queueFamily].queueFlags & VK_QUEUE_COMPUTE_BIT))
+    missing.push_back("VK_QUEUE_COMPUTE_BIT on queue family " + std::to_string(queueFamily));
+  // The shadow array (R32F storage image) and the record arrays (texel buffers).
+  VkFormatProperties r32f{};
+  fn.vkGetPhysicalDeviceFormatProperties(physicalDevice, VK_FORMAT_R32_SFLOAT, &r32f);
+  const VkFormatFeatureFlags imageNeeds = VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT | VK_FORMAT_FEATURE_TRANSFER_SRC_BIT |
+                                          VK_FORMAT_FEATURE_TRANSFER_DST_BIT;
+  if ((r32f.optimalTilingFeatures & imageNeeds) != imageNeeds)
+    missing.push_back("VK_FORMAT_R32_SFLOAT as an optimal-tiling storage image with transfers");
+  const std::pair<VkFormat, const char*> texelFormats[] = {{VK_FORMAT_R32_UINT, "VK_FORMAT_R32_UINT"},
+                                                           {VK_FORMAT_R32_SINT, "VK_FORMAT_R32_SINT"},
+                                                           {VK_FORMAT_R32G32B32A32_UINT, "VK_FORMAT_R32G32B32A32_UINT"}};
+  for (const auto& [format, name] : texelFormats) {
+    VkFormatProperties p{};
+    fn.vkGetPhysicalDeviceFormatProperties(physicalDevice, format, &p);
+    if (!(p.bufferFeatures & VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT))
+      missing.push_back(std::string(name) + " as a uniform texel buffer");
+  }
+  const VkPhysicalDeviceLimits& limits = props.limits;
+  if (limits.maxPerStageDescriptorStorageBuffers < gpu::VS_STORAGE_BUFFER_COUNT)
+    missing.push_back("maxPerStageDescriptorStorageBuffers >= " + std::to_string(gpu::VS_STORAGE_BUFFER_COUNT) +
+                      " (the device has " + std::to_string(limits.maxPerStageDescriptorStorageBuffers) + ")");
+  if (limits.maxDescriptorSetStorageBuffers < gpu::VS_STORAGE_BUFFER_COUNT)
+    missing.push_back("maxDescriptorSetStorageBuffers >= " + std::to_string(gpu::VS_STORAGE_BUFFER_COUNT) +
+                      " (the device has " + std::to_string(limits.maxDescriptorSetStorageBuffers) + ")");
+  for (const std::string& name : entryPointsMissing) missing.push_back("the entry point " + name);
+  return missing;
 }
 
 VKAPI_ATTR VkBool32 VKAPI_CALL VulkanContext::onMessage(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
@@ -288,20 +362,25 @@ VulkanContext::VulkanContext(const VulkanContextOptions& options) {
   VkResult r = vkCreateInstance(&ci, nullptr, &rawInstance);
   if (r == VK_ERROR_INCOMPATIBLE_DRIVER) throwRuntime(kNoDevice);
   vk::check(r, "vkCreateInstance");
-  instance_ = vk::UniqueInstance(rawInstance);
+  const std::vector<std::string> instanceMissing = fn_.loadInstance(vkGetInstanceProcAddr, rawInstance);
+  instance_ = vk::UniqueInstance(rawInstance, fn_.vkDestroyInstance);
+  instanceHandle_ = rawInstance;
+  if (!instanceMissing.empty()) throwRuntime("Vulkan: the loader has no " + instanceMissing.front());
   keepLoadedLibrariesMapped();
 
   if (validation_) {
     auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
-        vkGetInstanceProcAddr(instance_.get(), "vkCreateDebugUtilsMessengerEXT"));
+        fn_.vkGetInstanceProcAddr(instanceHandle_, "vkCreateDebugUtilsMessengerEXT"));
     if (!create) throwRuntime("Vulkan validation was requested but vkCreateDebugUtilsMessengerEXT is missing");
     VkDebugUtilsMessengerEXT m = VK_NULL_HANDLE;
-    vk::check(create(instance_.get(), &messengerInfo, nullptr, &m), "vkCreateDebugUtilsMessengerEXT");
-    messenger_ = vk::UniqueMessenger(instance_.get(), m);
+    vk::check(create(instanceHandle_, &messengerInfo, nullptr, &m), "vkCreateDebugUtilsMessengerEXT");
+    messenger_ = vk::UniqueMessenger(instanceHandle_, m,
+                                      reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(fn_.vkGetInstanceProcAddr(
+                                          instanceHandle_, "vkDestroyDebugUtilsMessengerEXT")));
   }
 
   std::vector<VkPhysicalDevice> pds;
-  std::vector<VulkanDeviceInfo> devices = enumerateDevices(instance_.get(), pds);
+  std::vector<VulkanDeviceInfo> devices = enumerateDevices(fn_, instanceHandle_, pds);
   std::size_t chosen = chooseVulkanDevice(devices, options.deviceIndex, options.deviceName);
   physical_ = pds[chosen];
   info_ = devices[chosen];
@@ -309,7 +388,7 @@ VulkanContext::VulkanContext(const VulkanContextOptions& options) {
     throwRuntime("Vulkan device " + info_.name + " supports only Vulkan " +
                  std::to_string(VK_API_VERSION_MAJOR(info_.apiVersion)) + "." +
                  std::to_string(VK_API_VERSION_MINOR(info_.apiVersion)) + "; voxshadow needs 1.1");
-  vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
+  fn_.vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
   // The trace shader divides and takes square roots through double, so that they round as the CPU's do
   // (compute/shared/lanes.h, VS_DIV).
   if (!info_.shaderFloat64)
@@ -317,6 +396,10 @@ VulkanContext::VulkanContext(const VulkanContextOptions& options) {
                  "needs to round divisions and square roots as the CPU does; use --backend cpu");
   VkPhysicalDeviceFeatures enabled{};
   enabled.shaderFloat64 = VK_TRUE;
+  if (std::vector<std::string> missing =
+          missingVulkanRequirements(fn_, physical_, appInfo().apiVersion, enabled, info_.computeQueueFamily, {});
+      !missing.empty())
+    throwRuntime(cannotRun(info_.name, missing));
 
   float priority = 1.0f;
   auto qci = vk::make<VkDeviceQueueCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO);
@@ -328,21 +411,87 @@ VulkanContext::VulkanContext(const VulkanContextOptions& options) {
   dci.pQueueCreateInfos = &qci;
   dci.pEnabledFeatures = &enabled;
   VkDevice rawDevice = VK_NULL_HANDLE;
-  vk::check(vkCreateDevice(physical_, &dci, nullptr, &rawDevice), "vkCreateDevice");
-  device_ = vk::UniqueDevice(rawDevice);
-  vkGetDeviceQueue(device_.get(), info_.computeQueueFamily, 0, &queue_);
+  vk::check(fn_.vkCreateDevice(physical_, &dci, fn_.allocator, &rawDevice), "vkCreateDevice");
+  // Loaded first, so that the device is destroyed through its own table whatever happens next.
+  const std::vector<std::string> deviceMissing = fn_.loadDevice(rawDevice);
+  if (!fn_.vkDestroyDevice)
+    fn_.vkDestroyDevice =
+        reinterpret_cast<PFN_vkDestroyDevice>(fn_.vkGetInstanceProcAddr(instanceHandle_, "vkDestroyDevice"));
+  device_ = vk::UniqueDevice(fn_, rawDevice);
+  deviceHandle_ = rawDevice;
+  if (!deviceMissing.empty()) throwRuntime(cannotRun(info_.name, deviceMissing));
+  fn_.vkGetDeviceQueue(deviceHandle_, info_.computeQueueFamily, 0, &queue_);
+  createPoolAndFence();
+}
 
+VulkanContext::VulkanContext(const VulkanHostDevice& host) {
+  // The handles first: nothing can be queried without them.
+  std::vector<std::string> nullFields;
+  if (!host.getInstanceProcAddr) nullFields.push_back("getInstanceProcAddr");
+  if (host.instance == VK_NULL_HANDLE) nullFields.push_back("instance");
+  if (host.physicalDevice == VK_NULL_HANDLE) nullFields.push_back("physicalDevice");
+  if (host.device == VK_NULL_HANDLE) nullFields.push_back("device");
+  if (host.queue == VK_NULL_HANDLE) nullFields.push_back("queue");
+  if (!nullFields.empty()) {
+    std::string list;
+    for (const std::string& f : nullFields) list += (list.empty() ? "" : ", ") + f;
+    throwBadInput("VulkanHostDevice: null " + list + " (every handle and getInstanceProcAddr must be the host's)");
+  }
+  onHostDevice_ = true;
+  instanceHandle_ = host.instance;
+  deviceHandle_ = host.device;
+  physical_ = host.physicalDevice;
+  queue_ = host.queue;
+  hostPipelineCache_ = host.pipelineCache;
+  // Of the instance's entry points, a host's device needs the queries (not vkCreateDevice,
+  // vkEnumeratePhysicalDevices or vkDestroyInstance, which only a context of its own calls). Without the 1.0
+  // queries nothing else can be checked: the refusal names them alone.
+  std::vector<std::string> entryPointsMissing;
+  for (const std::string& name : fn_.loadInstance(host.getInstanceProcAddr, host.instance))
+    if (name != "vkCreateDevice" && name != "vkEnumeratePhysicalDevices" && name != "vkDestroyInstance")
+      entryPointsMissing.push_back(name);
+  if (!fn_.vkGetPhysicalDeviceProperties || !fn_.vkGetPhysicalDeviceFeatures ||
+      !fn_.vkGetPhysicalDeviceFormatProperties || !fn_.vkGetPhysicalDeviceQueueFamilyProperties ||
+      !fn_.vkGetPhysicalDeviceMemoryProperties || !fn_.vkGetDeviceProcAddr) {
+    std::vector<std::string> missing;
+    for (const std::string& name : entryPointsMissing) missing.push_back("the entry point " + name);
+    throwRuntime(cannotRun("(the host's, not queried)", missing));
+  }
+  fn_.allocator = host.allocator;
+  for (const std::string& name : fn_.loadDevice(host.device)) entryPointsMissing.push_back(name);
+  std::vector<std::string> missing = missingVulkanRequirements(fn_, physical_, host.instanceApiVersion,
+                                                               host.enabledFeatures, host.queueFamily,
+                                                               entryPointsMissing);
+  if (!missing.empty()) {
+    VkPhysicalDeviceProperties props{};
+    fn_.vkGetPhysicalDeviceProperties(physical_, &props);
+    throwRuntime(cannotRun(props.deviceName, missing));
+  }
+  // Only now: describing uses Vulkan 1.1 calls.
+  info_ = describe(fn_, physical_, 0);
+  // The host's device has no index in a list the library made; its queue family is the one it named.
+  info_.computeQueueFamily = host.queueFamily;
+  std::uint32_t familyCount = 0;
+  fn_.vkGetPhysicalDeviceQueueFamilyProperties(physical_, &familyCount, nullptr);
+  std::vector<VkQueueFamilyProperties> families(familyCount);
+  fn_.vkGetPhysicalDeviceQueueFamilyProperties(physical_, &familyCount, families.data());
+  info_.timestampValidBits = families[host.queueFamily].timestampValidBits;
+  fn_.vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
+  createPoolAndFence();
+}
+
+void VulkanContext::createPoolAndFence() {
   auto pci = vk::make<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
   pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT | VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
   pci.queueFamilyIndex = info_.computeQueueFamily;
   VkCommandPool pool = VK_NULL_HANDLE;
-  vk::check(vkCreateCommandPool(device_.get(), &pci, nullptr, &pool), "vkCreateCommandPool");
-  commandPool_ = vk::UniqueCommandPool(device_.get(), pool);
+  vk::check(fn_.vkCreateCommandPool(deviceHandle_, &pci, fn_.allocator, &pool), "vkCreateCommandPool");
+  commandPool_ = vk::UniqueCommandPool(fn_, deviceHandle_, pool);
 
   auto fci = vk::make<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
   VkFence fence = VK_NULL_HANDLE;
-  vk::check(vkCreateFence(device_.get(), &fci, nullptr, &fence), "vkCreateFence");
-  fence_ = vk::UniqueFence(device_.get(), fence);
+  vk::check(fn_.vkCreateFence(deviceHandle_, &fci, fn_.allocator, &fence), "vkCreateFence");
+  fence_ = vk::UniqueFence(fn_, deviceHandle_, fence);
 }
 
 VulkanContext::~VulkanContext() = default;
@@ -367,30 +516,30 @@ vk::Buffer VulkanContext::createBuffer(VkDeviceSize size, VkBufferUsageFlags usa
   if (size > info_.maxMemoryAllocationSize && info_.maxMemoryAllocationSize > 0)
     throwRuntime("Vulkan buffer of " + std::to_string(size) + " bytes exceeds the device's maxMemoryAllocationSize (" +
                  std::to_string(info_.maxMemoryAllocationSize) + " bytes) on " + info_.name);
-  VkDevice dev = device_.get();
+  VkDevice dev = deviceHandle_;
   auto bci = vk::make<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
   bci.size = size;
   bci.usage = usage;
   bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   VkBuffer raw = VK_NULL_HANDLE;
-  vk::check(vkCreateBuffer(dev, &bci, nullptr, &raw), "vkCreateBuffer");
+  vk::check(fn_.vkCreateBuffer(dev, &bci, fn_.allocator, &raw), "vkCreateBuffer");
   vk::Buffer out;
-  out.buffer = vk::UniqueBuffer(dev, raw);
+  out.buffer = vk::UniqueBuffer(fn_, dev, raw);
   out.size = size;
   VkMemoryRequirements req{};
-  vkGetBufferMemoryRequirements(dev, raw, &req);
+  fn_.vkGetBufferMemoryRequirements(dev, raw, &req);
   auto ai = vk::make<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
   ai.allocationSize = req.size;
   ai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, required, preferred);
   VkDeviceMemory mem = VK_NULL_HANDLE;
-  VkResult r = vkAllocateMemory(dev, &ai, nullptr, &mem);
+  VkResult r = fn_.vkAllocateMemory(dev, &ai, fn_.allocator, &mem);
   if (r == VK_ERROR_OUT_OF_DEVICE_MEMORY || r == VK_ERROR_OUT_OF_HOST_MEMORY)
     throwRuntime("Vulkan device " + info_.name + " is out of memory allocating " + std::to_string(req.size) +
                  " bytes (device-local heap: " + std::to_string(info_.deviceLocalBytes) + " bytes)");
   vk::check(r, "vkAllocateMemory");
-  out.memory = vk::UniqueMemory(dev, mem);
-  vk::check(vkBindBufferMemory(dev, raw, mem, 0), "vkBindBufferMemory");
-  if (map) vk::check(vkMapMemory(dev, mem, 0, VK_WHOLE_SIZE, 0, &out.mapped), "vkMapMemory");
+  out.memory = vk::UniqueMemory(fn_, dev, mem);
+  vk::check(fn_.vkBindBufferMemory(dev, raw, mem, 0), "vkBindBufferMemory");
+  if (map) vk::check(fn_.vkMapMemory(dev, mem, 0, VK_WHOLE_SIZE, 0, &out.mapped), "vkMapMemory");
   return out;
 }
 
@@ -420,8 +569,8 @@ vk::UniqueBufferView VulkanContext::createTexelView(const vk::Buffer& buffer, Vk
   ci.format = format;
   ci.range = VK_WHOLE_SIZE;
   VkBufferView view = VK_NULL_HANDLE;
-  vk::check(vkCreateBufferView(device_.get(), &ci, nullptr, &view), "vkCreateBufferView");
-  return vk::UniqueBufferView(device_.get(), view);
+  vk::check(fn_.vkCreateBufferView(deviceHandle_, &ci, fn_.allocator, &view), "vkCreateBufferView");
+  return vk::UniqueBufferView(fn_, deviceHandle_, view);
 }
 
 vk::Image VulkanContext::createStorageImage(std::uint32_t width, std::uint32_t height, std::uint32_t layers) {
@@ -430,7 +579,7 @@ vk::Image VulkanContext::createStorageImage(std::uint32_t width, std::uint32_t h
                  std::to_string(layers) + " exceeds the device's maxImageDimension2D (" +
                  std::to_string(info_.maxImageDimension2D) + ") or maxImageArrayLayers (" +
                  std::to_string(info_.maxImageArrayLayers) + ") on " + info_.name);
-  VkDevice dev = device_.get();
+  VkDevice dev = deviceHandle_;
   auto ici = vk::make<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
   ici.imageType = VK_IMAGE_TYPE_2D;
   ici.format = VK_FORMAT_R32_SFLOAT;
@@ -443,20 +592,20 @@ vk::Image VulkanContext::createStorageImage(std::uint32_t width, std::uint32_t h
   ici.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   ici.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
   VkImage raw = VK_NULL_HANDLE;
-  vk::check(vkCreateImage(dev, &ici, nullptr, &raw), "vkCreateImage");
+  vk::check(fn_.vkCreateImage(dev, &ici, fn_.allocator, &raw), "vkCreateImage");
   vk::Image out;
-  out.image = vk::UniqueImage(dev, raw);
+  out.image = vk::UniqueImage(fn_, dev, raw);
   out.extent = ici.extent;
   out.layers = layers;
   VkMemoryRequirements req{};
-  vkGetImageMemoryRequirements(dev, raw, &req);
+  fn_.vkGetImageMemoryRequirements(dev, raw, &req);
   auto ai = vk::make<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
   ai.allocationSize = req.size;
   ai.memoryTypeIndex = findMemoryType(req.memoryTypeBits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
   VkDeviceMemory mem = VK_NULL_HANDLE;
-  vk::check(vkAllocateMemory(dev, &ai, nullptr, &mem), "vkAllocateMemory (shadow image)");
-  out.memory = vk::UniqueMemory(dev, mem);
-  vk::check(vkBindImageMemory(dev, raw, mem, 0), "vkBindImageMemory");
+  vk::check(fn_.vkAllocateMemory(dev, &ai, fn_.allocator, &mem), "vkAllocateMemory (shadow image)");
+  out.memory = vk::UniqueMemory(fn_, dev, mem);
+  vk::check(fn_.vkBindImageMemory(dev, raw, mem, 0), "vkBindImageMemory");
 
   auto vci = vk::make<VkImageViewCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO);
   vci.image = raw;
@@ -464,8 +613,8 @@ vk::Image VulkanContext::createStorageImage(std::uint32_t width, std::uint32_t h
   vci.format = VK_FORMAT_R32_SFLOAT;
   vci.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, layers};
   VkImageView view = VK_NULL_HANDLE;
-  vk::check(vkCreateImageView(dev, &vci, nullptr, &view), "vkCreateImageView");
-  out.view = vk::UniqueImageView(dev, view);
+  vk::check(fn_.vkCreateImageView(dev, &vci, fn_.allocator, &view), "vkCreateImageView");
+  out.view = vk::UniqueImageView(fn_, dev, view);
 
   // The image lives in GENERAL: written by the shader, read by copies, never sampled.
   submitAndWait([&](VkCommandBuffer cmd) {
@@ -478,7 +627,7 @@ vk::Image VulkanContext::createStorageImage(std::uint32_t width, std::uint32_t h
     b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     b.image = raw;
     b.subresourceRange = vci.subresourceRange;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT,
+    fn_.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT,
                          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0,
                          nullptr, 1, &b);
   });
@@ -491,8 +640,8 @@ vk::UniqueCommandBuffer VulkanContext::allocateCommandBuffer() {
   ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
   ai.commandBufferCount = 1;
   VkCommandBuffer cmd = VK_NULL_HANDLE;
-  vk::check(vkAllocateCommandBuffers(device_.get(), &ai, &cmd), "vkAllocateCommandBuffers");
-  return vk::UniqueCommandBuffer(device_.get(), commandPool_.get(), cmd);
+  vk::check(fn_.vkAllocateCommandBuffers(deviceHandle_, &ai, &cmd), "vkAllocateCommandBuffers");
+  return vk::UniqueCommandBuffer(fn_, deviceHandle_, commandPool_.get(), cmd);
 }
 
 void VulkanContext::submitAndWait(const std::function<void(VkCommandBuffer)>& record) {
@@ -500,17 +649,17 @@ void VulkanContext::submitAndWait(const std::function<void(VkCommandBuffer)>& re
   vk::UniqueCommandBuffer cmd = allocateCommandBuffer();
   auto bi = vk::make<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
   bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-  vk::check(vkBeginCommandBuffer(cmd.get(), &bi), "vkBeginCommandBuffer");
+  vk::check(fn_.vkBeginCommandBuffer(cmd.get(), &bi), "vkBeginCommandBuffer");
   record(cmd.get());
-  vk::check(vkEndCommandBuffer(cmd.get()), "vkEndCommandBuffer");
+  vk::check(fn_.vkEndCommandBuffer(cmd.get()), "vkEndCommandBuffer");
   VkCommandBuffer raw = cmd.get();
   auto si = vk::make<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
   si.commandBufferCount = 1;
   si.pCommandBuffers = &raw;
   VkFence fence = fence_.get();
-  vk::check(vkResetFences(device_.get(), 1, &fence), "vkResetFences");
-  vk::check(vkQueueSubmit(queue_, 1, &si, fence), "vkQueueSubmit");
-  vk::check(vkWaitForFences(device_.get(), 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+  vk::check(fn_.vkResetFences(deviceHandle_, 1, &fence), "vkResetFences");
+  vk::check(fn_.vkQueueSubmit(queue_, 1, &si, fence), "vkQueueSubmit");
+  vk::check(fn_.vkWaitForFences(deviceHandle_, 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
 }
 
 void VulkanContext::upload(const vk::Buffer& dst, VkDeviceSize offset, const void* data, VkDeviceSize size) {
@@ -525,7 +674,7 @@ void VulkanContext::upload(const vk::Buffer& dst, VkDeviceSize offset, const voi
     std::memcpy(staging_.mapped, bytes + done, n);
     submitAndWait([&](VkCommandBuffer cmd) {
       VkBufferCopy copy{0, offset + done, n};
-      vkCmdCopyBuffer(cmd, staging_.get(), dst.get(), 1, &copy);
+      fn_.vkCmdCopyBuffer(cmd, staging_.get(), dst.get(), 1, &copy);
     });
     done += n;
   }
@@ -539,8 +688,8 @@ vk::UniquePipelineLayout VulkanContext::createPipelineLayout(VkDescriptorSetLayo
   pl.pushConstantRangeCount = pushBytes > 0 ? 1u : 0u;
   pl.pPushConstantRanges = pushBytes > 0 ? &range : nullptr;
   VkPipelineLayout layout = VK_NULL_HANDLE;
-  vk::check(vkCreatePipelineLayout(device_.get(), &pl, nullptr, &layout), "vkCreatePipelineLayout");
-  return vk::UniquePipelineLayout(device_.get(), layout);
+  vk::check(fn_.vkCreatePipelineLayout(deviceHandle_, &pl, fn_.allocator, &layout), "vkCreatePipelineLayout");
+  return vk::UniquePipelineLayout(fn_, deviceHandle_, layout);
 }
 
 vk::UniquePipeline VulkanContext::createComputePipeline(VkShaderModule shader, VkPipelineLayout layout,
@@ -553,8 +702,9 @@ vk::UniquePipeline VulkanContext::createComputePipeline(VkShaderModule shader, V
   ci.stage.pSpecializationInfo = constants;
   ci.layout = layout;
   VkPipeline p = VK_NULL_HANDLE;
-  vk::check(vkCreateComputePipelines(device_.get(), cache, 1, &ci, nullptr, &p), "vkCreateComputePipelines");
-  return vk::UniquePipeline(device_.get(), p);
+  if (cache == VK_NULL_HANDLE) cache = hostPipelineCache_;
+  vk::check(fn_.vkCreateComputePipelines(deviceHandle_, cache, 1, &ci, fn_.allocator, &p), "vkCreateComputePipelines");
+  return vk::UniquePipeline(fn_, deviceHandle_, p);
 }
 
 vk::UniqueShaderModule VulkanContext::createShaderModule(const std::uint32_t* code, std::size_t bytes) {
@@ -562,8 +712,8 @@ vk::UniqueShaderModule VulkanContext::createShaderModule(const std::uint32_t* co
   ci.codeSize = bytes;
   ci.pCode = code;
   VkShaderModule m = VK_NULL_HANDLE;
-  vk::check(vkCreateShaderModule(device_.get(), &ci, nullptr, &m), "vkCreateShaderModule");
-  return vk::UniqueShaderModule(device_.get(), m);
+  vk::check(fn_.vkCreateShaderModule(deviceHandle_, &ci, fn_.allocator, &m), "vkCreateShaderModule");
+  return vk::UniqueShaderModule(fn_, deviceHandle_, m);
 }
 
 }  // namespace vs

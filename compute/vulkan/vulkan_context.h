@@ -15,6 +15,7 @@
 
 #include <vulkan/vulkan.h>
 
+#include "compute/vulkan/vk_functions.h"
 #include "compute/vulkan/vk_raii.h"
 
 namespace vs {
@@ -68,7 +69,39 @@ struct VulkanContextOptions {
   std::optional<bool> validation;
 };
 
-// Owns the instance, device, compute queue and one command pool. Not copyable or movable (the debug
+// A host engine's Vulkan objects, for a VulkanContext that works on the host's device (README "Embedding in an
+// engine"). The library calls Vulkan only through `getInstanceProcAddr` (and the vkGetDeviceProcAddr it
+// returns), creates its own objects on `device` with `allocator`, and destroys only those: every handle here
+// stays the host's and must outlive every voxshadow object made on the context.
+struct VulkanHostDevice {
+  PFN_vkGetInstanceProcAddr getInstanceProcAddr = nullptr;  // the host's: its loader, layers or wrapper
+  VkInstance instance = VK_NULL_HANDLE;
+  // VkApplicationInfo::apiVersion the instance was created with (instance-level 1.1 calls need >= 1.1).
+  std::uint32_t instanceApiVersion = 0;
+  VkPhysicalDevice physicalDevice = VK_NULL_HANDLE;
+  VkDevice device = VK_NULL_HANDLE;
+  // The features the host enabled in vkCreateDevice (the library cannot query them): shaderFloat64 is needed.
+  VkPhysicalDeviceFeatures enabledFeatures{};
+  std::uint32_t queueFamily = 0;   // a family with VK_QUEUE_COMPUTE_BIT, that `queue` belongs to
+  // Where the library submits the work of its calls and waits for it (a queue the host leaves to the library,
+  // or one the host does not use from another thread while a voxshadow call runs: Vulkan requires queue
+  // submissions to be externally synchronised).
+  VkQueue queue = VK_NULL_HANDLE;
+  const VkAllocationCallbacks* allocator = nullptr;  // optional: for every object the library creates
+  VkPipelineCache pipelineCache = VK_NULL_HANDLE;    // optional: compiles go through it (no cache file)
+};
+
+// What a device lacks for voxshadow, one entry per missing requirement (an empty list: it has all of them),
+// each naming the requirement and what the device has: API version, feature, queue, format, limit, entry point.
+// `functions` must hold the instance-level entry points; device-level ones missing are listed when
+// `deviceFunctionsMissing` names them.
+std::vector<std::string> missingVulkanRequirements(const vk::Functions& functions, VkPhysicalDevice physicalDevice,
+                                                   std::uint32_t instanceApiVersion,
+                                                   const VkPhysicalDeviceFeatures& enabledFeatures,
+                                                   std::uint32_t queueFamily,
+                                                   const std::vector<std::string>& entryPointsMissing);
+
+// Owns (standalone) or borrows (a host's device) the instance, device and compute queue; owns one command pool. Not copyable or movable (the debug
 // messenger points at it). Threads: submitAndWait and upload run one after another (a mutex over the queue,
 // the pool, the fence and the staging buffer), validationMessages and shared may be called from any thread;
 // the create* calls make objects of their own and may too (Vulkan's object creation is thread-safe).
@@ -77,15 +110,25 @@ class VulkanContext {
   // Throws vs::Error(Runtime) when no device exists, when validation is requested but
   // VK_LAYER_KHRONOS_validation or VK_EXT_debug_utils is missing, or when device creation fails.
   explicit VulkanContext(const VulkanContextOptions& options = {});
+  // On a host engine's device. Throws vs::Error(BadInput) naming the null handle or function when one is
+  // missing, and vs::Error(Runtime) listing every requirement the device lacks (missingVulkanRequirements),
+  // before it creates anything. Destroys nothing of the host's.
+  explicit VulkanContext(const VulkanHostDevice& host);
   ~VulkanContext();
   VulkanContext(const VulkanContext&) = delete;
   VulkanContext& operator=(const VulkanContext&) = delete;
 
   const VulkanDeviceInfo& info() const { return info_; }
-  VkInstance instance() const { return instance_.get(); }
+  VkInstance instance() const { return instanceHandle_; }
   VkPhysicalDevice physicalDevice() const { return physical_; }
-  VkDevice device() const { return device_.get(); }
+  VkDevice device() const { return deviceHandle_; }
   VkQueue queue() const { return queue_; }
+  // The entry points every Vulkan call of the library goes through (loaded for this instance and device).
+  const vk::Functions& functions() const { return fn_; }
+  // True when made from a VulkanHostDevice: the instance and device are the host's.
+  bool onHostDevice() const { return onHostDevice_; }
+  // The host's pipeline cache (VK_NULL_HANDLE: none given, or standalone).
+  VkPipelineCache hostPipelineCache() const { return hostPipelineCache_; }
   bool validationEnabled() const { return validation_; }
   // Every warning and error the validation layer (or loader) reported so far, oldest first.
   std::vector<std::string> validationMessages() const;
@@ -111,7 +154,7 @@ class VulkanContext {
   // A compute pipeline layout over one descriptor set layout, with a push block of `pushBytes` (0: none).
   vk::UniquePipelineLayout createPipelineLayout(VkDescriptorSetLayout setLayout, std::uint32_t pushBytes);
   // A compute pipeline of `shader`'s "main" with `layout`, its specialisation constants given (null: the
-  // shader's defaults), through `cache` (VK_NULL_HANDLE: none).
+  // shader's defaults), through `cache` (VK_NULL_HANDLE: the host's pipeline cache on a host's device, else none).
   vk::UniquePipeline createComputePipeline(VkShaderModule shader, VkPipelineLayout layout,
                                            const VkSpecializationInfo* constants = nullptr,
                                            VkPipelineCache cache = VK_NULL_HANDLE);
@@ -131,17 +174,24 @@ class VulkanContext {
                                                   VkDebugUtilsMessageTypeFlagsEXT types,
                                                   const VkDebugUtilsMessengerCallbackDataEXT* data, void* user);
 
+  void createPoolAndFence();
+
+  vk::Functions fn_;  // first: every handle below is destroyed through it
+  bool onHostDevice_ = false;
+  VkPipelineCache hostPipelineCache_ = VK_NULL_HANDLE;
+  VkInstance instanceHandle_ = VK_NULL_HANDLE;
+  VkDevice deviceHandle_ = VK_NULL_HANDLE;
   bool validation_ = false;
   std::mutex sharedMutex_;
   std::map<std::string, std::weak_ptr<void>> shared_;
   mutable std::mutex messagesMutex_;
   std::vector<std::string> messages_;
-  vk::UniqueInstance instance_;
+  vk::UniqueInstance instance_;  // standalone only
   vk::UniqueMessenger messenger_;
   VkPhysicalDevice physical_ = VK_NULL_HANDLE;
   VulkanDeviceInfo info_;
   VkPhysicalDeviceMemoryProperties memory_{};
-  vk::UniqueDevice device_;
+  vk::UniqueDevice device_;  // standalone only
   VkQueue queue_ = VK_NULL_HANDLE;
   vk::UniqueCommandPool commandPool_;
   vk::UniqueFence fence_;

@@ -180,7 +180,9 @@ struct VulkanTracer::Impl {
 
   explicit Impl(const VulkanOptions& o)
       : options(o),
-        contextOwner(std::make_shared<VulkanContext>(VulkanContextOptions{o.deviceIndex, o.deviceName, o.validation})),
+        contextOwner(o.context ? o.context
+                               : std::make_shared<VulkanContext>(
+                                     VulkanContextOptions{o.deviceIndex, o.deviceName, o.validation})),
         context(*contextOwner) {
     const VulkanDeviceInfo& info = context.info();
     std::uint32_t needed = gpu::VS_STORAGE_BUFFER_COUNT;
@@ -207,8 +209,8 @@ struct VulkanTracer::Impl {
     qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
     qi.queryCount = std::max(count, 2 * queryCapacity);
     VkQueryPool q = VK_NULL_HANDLE;
-    vk::check(vkCreateQueryPool(context.device(), &qi, nullptr, &q), "vkCreateQueryPool");
-    queryPool = vk::UniqueQueryPool(context.device(), q);
+    vk::check(context.functions().vkCreateQueryPool(context.device(), &qi, context.functions().allocator, &q), "vkCreateQueryPool");
+    queryPool = vk::UniqueQueryPool(context.functions(), context.device(), q);
     queryCapacity = qi.queryCount;
   }
 
@@ -230,8 +232,8 @@ struct VulkanTracer::Impl {
     dl.bindingCount = static_cast<std::uint32_t>(bindings.size());
     dl.pBindings = bindings.data();
     VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
-    vk::check(vkCreateDescriptorSetLayout(dev, &dl, nullptr, &setLayout), "vkCreateDescriptorSetLayout");
-    pipeline.setLayout = vk::UniqueDescriptorSetLayout(dev, setLayout);
+    vk::check(context.functions().vkCreateDescriptorSetLayout(dev, &dl, context.functions().allocator, &setLayout), "vkCreateDescriptorSetLayout");
+    pipeline.setLayout = vk::UniqueDescriptorSetLayout(context.functions(), dev, setLayout);
 
     pipeline.layout = context.createPipelineLayout(setLayout, sizeof(TracePush));
 
@@ -258,13 +260,13 @@ struct VulkanTracer::Impl {
     dp.poolSizeCount = static_cast<std::uint32_t>(sizes.size());
     dp.pPoolSizes = sizes.data();
     VkDescriptorPool pool = VK_NULL_HANDLE;
-    vk::check(vkCreateDescriptorPool(dev, &dp, nullptr, &pool), "vkCreateDescriptorPool");
-    descriptorPool = vk::UniqueDescriptorPool(dev, pool);
+    vk::check(context.functions().vkCreateDescriptorPool(dev, &dp, context.functions().allocator, &pool), "vkCreateDescriptorPool");
+    descriptorPool = vk::UniqueDescriptorPool(context.functions(), dev, pool);
     auto ai = vk::make<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
     ai.descriptorPool = pool;
     ai.descriptorSetCount = 1;
     ai.pSetLayouts = &setLayout;
-    vk::check(vkAllocateDescriptorSets(dev, &ai, &descriptorSet), "vkAllocateDescriptorSets");
+    vk::check(context.functions().vkAllocateDescriptorSets(dev, &ai, &descriptorSet), "vkAllocateDescriptorSets");
   }
 
   // The trace pipeline of one variant; created (and the disk cache saved) on first need.
@@ -527,7 +529,7 @@ struct VulkanTracer::Impl {
           group.clear();
           std::size_t j = i;
           for (; j < copies.size() && copies[j].first == copies[i].first; ++j) group.push_back(copies[j].second);
-          vkCmdCopyBuffer(cmd, updateStaging.get(), copies[i].first, static_cast<std::uint32_t>(group.size()),
+          context.functions().vkCmdCopyBuffer(cmd, updateStaging.get(), copies[i].first, static_cast<std::uint32_t>(group.size()),
                           group.data());
           i = j;
         }
@@ -741,7 +743,7 @@ struct VulkanTracer::Impl {
     w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
     w.pImageInfo = &imageInfo;
     writes.push_back(w);
-    vkUpdateDescriptorSets(context.device(), static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
+    context.functions().vkUpdateDescriptorSets(context.device(), static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
   }
 
   // Traces the views' rectangles into `layers` (read back) or, given `target`, copies them on the device into
@@ -865,8 +867,8 @@ struct VulkanTracer::Impl {
       barrierBeforeDispatch(cmd);
       const std::uint32_t queries = layerCount + 1;
       if (queryPool) {
-        vkCmdResetQueryPool(cmd, queryPool.get(), 0, queries);
-        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queryPool.get(), 0);
+        context.functions().vkCmdResetQueryPool(cmd, queryPool.get(), 0, queries);
+        context.functions().vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queryPool.get(), 0);
       }
       VkPipeline bound = VK_NULL_HANDLE;
       // One dispatch per layer, sized to its own rectangle: no workgroups wasted on a batch's largest view,
@@ -879,17 +881,17 @@ struct VulkanTracer::Impl {
         if (gx > 0 && gy > 0) {
           if (viewPipelines[i] != bound) {
             bound = viewPipelines[i];
-            vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, bound);
+            context.functions().vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, bound);
           }
           auto viewOffset = static_cast<std::uint32_t>(i * viewStride);
-          vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet,
+          context.functions().vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet,
                                   1, &viewOffset);
           push.layer = i;
-          vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
-          vkCmdDispatch(cmd, gx, gy, 1);
+          context.functions().vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+          context.functions().vkCmdDispatch(cmd, gx, gy, 1);
           ++stats.dispatches;
         }
-        if (queryPool) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queryPool.get(), i + 1);
+        if (queryPool) context.functions().vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queryPool.get(), i + 1);
       }
 
       auto toCopy = vk::make<VkImageMemoryBarrier>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER);
@@ -901,9 +903,9 @@ struct VulkanTracer::Impl {
       toCopy.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
       toCopy.image = image.get();
       toCopy.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, image.layers};
-      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr,
+      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr,
                            0, nullptr, 1, &toCopy);
-      vkCmdCopyImageToBuffer(cmd, image.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+      context.functions().vkCmdCopyImageToBuffer(cmd, image.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
                              target ? target->buffer : readback.get(), static_cast<std::uint32_t>(copies.size()),
                              copies.data());
       // Back to GENERAL for the next dispatch; the layout change keeps the texels.
@@ -916,7 +918,7 @@ struct VulkanTracer::Impl {
       auto toHost = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
       toHost.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
       toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT | VK_ACCESS_SHADER_READ_BIT;
-      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                            0, 1, &toHost, 0, nullptr, 1, &toShader);
     });
 
@@ -943,11 +945,11 @@ struct VulkanTracer::Impl {
   }
 
   // Earlier uploads, host writes (views, rays) and the previous readback all precede a dispatch.
-  static void barrierBeforeDispatch(VkCommandBuffer cmd) {
+  void barrierBeforeDispatch(VkCommandBuffer cmd) const {
     auto before = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
     before.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_WRITE_BIT;
     before.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+    context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
                          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
   }
 
@@ -1028,25 +1030,25 @@ struct VulkanTracer::Impl {
     context.submitAndWait([&](VkCommandBuffer cmd) {
       barrierBeforeDispatch(cmd);
       if (queryPool) {
-        vkCmdResetQueryPool(cmd, queryPool.get(), 0, 2);
-        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queryPool.get(), 0);
+        context.functions().vkCmdResetQueryPool(cmd, queryPool.get(), 0, 2);
+        context.functions().vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queryPool.get(), 0);
       }
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
+      context.functions().vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipe);
       std::uint32_t viewOffset = 0;
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet, 1,
+      context.functions().vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout.get(), 0, 1, &descriptorSet, 1,
                               &viewOffset);
       for (std::uint64_t first = 0; first < groups; first += groupsPerDispatch) {
         std::uint64_t n = std::min(groupsPerDispatch, groups - first);
         push.rayOffset = static_cast<std::uint32_t>(first * gpu::VS_RAYS_PER_GROUP);
-        vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
-        vkCmdDispatch(cmd, static_cast<std::uint32_t>(n), 1, 1);
+        context.functions().vkCmdPushConstants(cmd, pipeline.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+        context.functions().vkCmdDispatch(cmd, static_cast<std::uint32_t>(n), 1, 1);
         ++stats.dispatches;
       }
-      if (queryPool) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queryPool.get(), 1);
+      if (queryPool) context.functions().vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queryPool.get(), 1);
       auto toHost = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
       toHost.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
       toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-      vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
+      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
                            nullptr, 0, nullptr);
     });
     std::memcpy(out, results.mapped, outBytes);
@@ -1061,7 +1063,7 @@ struct VulkanTracer::Impl {
   std::vector<double> timestampMs(std::uint32_t count) {
     const VulkanDeviceInfo& info = context.info();
     std::vector<std::uint64_t> ts(count + 1, 0);
-    vk::check(vkGetQueryPoolResults(context.device(), queryPool.get(), 0, count + 1, ts.size() * sizeof(std::uint64_t),
+    vk::check(context.functions().vkGetQueryPoolResults(context.device(), queryPool.get(), 0, count + 1, ts.size() * sizeof(std::uint64_t),
                                     ts.data(), sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
               "vkGetQueryPoolResults");
     std::uint64_t mask =

@@ -21,6 +21,9 @@
 namespace vs {
 
 struct VulkanOptions {
+  // The device to work on: a context already made (standalone, or on a host engine's device through
+  // VulkanHostDevice); null: the tracer makes its own from deviceIndex, deviceName and validation.
+  std::shared_ptr<VulkanContext> context;
   int deviceIndex = -1;       // >= 0: that device (listVulkanDevices order)
   std::string deviceName;     // else: first device whose name contains this (case-insensitive)
   std::optional<bool> validation;  // unset: VOXSHADOW_VALIDATION=1 in the environment turns it on

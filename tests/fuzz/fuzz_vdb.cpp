@@ -16,12 +16,6 @@
 
 namespace {
 
-// Forking the sanitized process for every input cost more than the rest of an execution: one checking child
-// serves them all (vs::setPersistentCheckingProcess), with the same verdicts and messages.
-const bool persistentChecks = [] {
-  vs::setPersistentCheckingProcess(true);
-  return true;
-}();
 
 // The seeds expand to at most a few thousand solid voxels (2,450: arnold_fog_torus.vdb); a mutation that
 // turns a leaf into a tile of 32^3 voxels or more is refused by the loader's voxel limit (the check and
@@ -51,8 +45,8 @@ long asanOption(const char* name, long otherwise) {
 
 }  // namespace
 
-// AddressSanitizer calls this before it prints a report. In a checking child (its report goes nowhere, and
-// only how the child ended decides the verdict) the report's symbolization started llvm-symbolizer over this
+// AddressSanitizer calls this before it prints a report. In a reader (its report goes nowhere, and only how
+// the reader ended decides the verdict) the report's symbolization started llvm-symbolizer over this
 // binary's debug information for every input OpenVDB's reader overran: about half a second each, an eighth
 // of the fuzzing time. The child ends as AddressSanitizer would end it after the report, at once.
 extern "C" void __asan_on_error() {
@@ -61,8 +55,15 @@ extern "C" void __asan_on_error() {
   ::_exit(int(asanOption("exitcode", 1)));
 }
 
+// Forking the sanitized process for every input cost more than the rest of an execution: one small checking
+// process, forked before fuzzing starts (after every static initializer ran), forks the reader of each input
+// (vs::setPersistentCheckingProcess), with the same verdicts and messages.
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  vs::setPersistentCheckingProcess(true);
+  return 0;
+}
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  (void)persistentChecks;
   // OpenVDB reads from files only.
   static const std::filesystem::path file = vs::fuzz::scratchDir() / "input.vdb";
   vs::fuzz::writeInput(file, data, size);
