@@ -178,22 +178,22 @@ struct WorldRay {
 // Whether every component of a ray is finite. Comparisons, not isnan/isinf, so that GLSL and C++ read it
 // alike: a NaN fails every comparison. A non-finite ray (a degenerate view matrix) is a miss, so that no
 // tracer turns it into a voxel coordinate.
-LBool vsIsFinite3(LVec3 v) {
+VS_ALWAYS_INLINE LBool vsIsFinite3(LVec3 v) {
   LVec3 a = abs(v);
   return a.x <= VS_T_INFINITY && a.y <= VS_T_INFINITY && a.z <= VS_T_INFINITY;
 }
-LBool vsRayIsFinite(VS_IN(WorldRay) ray) {
+VS_ALWAYS_INLINE LBool vsRayIsFinite(VS_IN(WorldRay) ray) {
   return vsIsFinite3(ray.eyeHigh) && vsIsFinite3(ray.eyeLow) && vsIsFinite3(ray.start) && vsIsFinite3(ray.d) &&
          abs(ray.tMin) <= VS_T_INFINITY && abs(ray.tMax) <= VS_T_INFINITY;
 }
 
 // 1 / d, or 0 where the ray runs parallel to the axis (d == 0): the walk's inverse direction.
-LFloat vsInverseAxis(LFloat d) { return vsSelect(d == 0.0f, LFloat(0.0f), VS_DIV(LFloat(1.0f), d)); }
+VS_ALWAYS_INLINE LFloat vsInverseAxis(LFloat d) { return vsSelect(d == 0.0f, LFloat(0.0f), VS_DIV(LFloat(1.0f), d)); }
 
 // One axis of a slab test against [lo, hi]: narrows [t0, t1] to where the ray lies between the two planes and
 // gives 1/d (0 where d is 0). A ray parallel to the planes is kept when lo <= o and o < hi (o <= hi when
 // `hiExclusive` is false).
-LBool vsClipAxis(LFloat o, LFloat d, LFloat lo, LFloat hi, bool hiExclusive, VS_INOUT(LFloat) t0,
+VS_ALWAYS_INLINE LBool vsClipAxis(LFloat o, LFloat d, LFloat lo, LFloat hi, bool hiExclusive, VS_INOUT(LFloat) t0,
                  VS_INOUT(LFloat) t1, VS_INOUT(LFloat) invD) {
   LBool parallel = d == 0.0f;
   invD = vsInverseAxis(d);
@@ -205,7 +205,7 @@ LBool vsClipAxis(LFloat o, LFloat d, LFloat lo, LFloat hi, bool hiExclusive, VS_
 }
 
 // Slab test of o + t*d against a box; returns the entry t, or VS_T_INFINITY when [tMin, tMax] misses it.
-LFloat vsBoxEntry(LVec3 bmin, LVec3 bmax, LVec3 o, LVec3 d, LFloat tMin, LFloat tMax) {
+VS_ALWAYS_INLINE LFloat vsBoxEntry(LVec3 bmin, LVec3 bmax, LVec3 o, LVec3 d, LFloat tMin, LFloat tMax) {
   LFloat t0 = tMin;
   LFloat t1 = tMax;
   LFloat inv = 0.0f;
@@ -216,7 +216,7 @@ LFloat vsBoxEntry(LVec3 bmin, LVec3 bmax, LVec3 o, LVec3 d, LFloat tMin, LFloat 
 }
 
 // The ray's start in float, for culling against world boxes only (vsCullPad bounds its error).
-LVec3 vsCullOrigin(VS_IN(WorldRay) ray) {
+VS_ALWAYS_INLINE LVec3 vsCullOrigin(VS_IN(WorldRay) ray) {
   VS_PRECISE LVec3 o = ray.eyeHigh + ray.start;
   return o;
 }
@@ -224,7 +224,7 @@ LVec3 vsCullOrigin(VS_IN(WorldRay) ray) {
 // How far a world box is grown for the culling tests of one ray: more than the rounding of vsCullOrigin and
 // of the slab test's arithmetic (a few ulps of the largest magnitude involved), so that culling never drops an
 // instance the exact ray enters; a culling test that keeps too much costs a walk, never a result.
-LFloat vsCullPad(VS_IN(WorldRay) ray) {
+VS_ALWAYS_INLINE LFloat vsCullPad(VS_IN(WorldRay) ray) {
   LVec3 o = abs(ray.eyeHigh) + abs(ray.start);
   VS_PRECISE LVec3 reach = abs(ray.d) * max(abs(ray.tMin), abs(ray.tMax));
   VS_PRECISE LFloat scale = max(max(o.x, o.y), o.z) + max(max(reach.x, reach.y), reach.z);
@@ -232,7 +232,7 @@ LFloat vsCullPad(VS_IN(WorldRay) ray) {
 }
 
 // Where a ray enters a world box [bmin, bmax] grown by vsCullPad, or VS_T_INFINITY when it misses it.
-LFloat vsInstanceBoxEntry(VS_IN(WorldRay) ray, vec3 bmin, vec3 bmax) {
+VS_ALWAYS_INLINE LFloat vsInstanceBoxEntry(VS_IN(WorldRay) ray, vec3 bmin, vec3 bmax) {
   LFloat pad = vsCullPad(ray);
   return vsBoxEntry(LVec3(bmin) - LVec3(pad), LVec3(bmax) + LVec3(pad), vsCullOrigin(ray), ray.d, ray.tMin,
                     ray.tMax);
