@@ -178,8 +178,11 @@ struct WorldRay {
 // Whether every component of a ray is finite. Comparisons, not isnan/isinf, so that GLSL and C++ read it
 // alike: a NaN fails every comparison. A non-finite ray (a degenerate view matrix) is a miss, so that no
 // tracer turns it into a voxel coordinate.
+// |v| by component (GLM's vector abs stays an out-of-line call in the large CPU drivers).
+VS_ALWAYS_INLINE LVec3 vsAbs3(LVec3 v) { return LVec3(abs(v.x), abs(v.y), abs(v.z)); }
+
 VS_ALWAYS_INLINE LBool vsIsFinite3(LVec3 v) {
-  LVec3 a = abs(v);
+  LVec3 a = vsAbs3(v);
   return a.x <= VS_T_INFINITY && a.y <= VS_T_INFINITY && a.z <= VS_T_INFINITY;
 }
 VS_ALWAYS_INLINE LBool vsRayIsFinite(VS_IN(WorldRay) ray) {
@@ -225,8 +228,8 @@ VS_ALWAYS_INLINE LVec3 vsCullOrigin(VS_IN(WorldRay) ray) {
 // of the slab test's arithmetic (a few ulps of the largest magnitude involved), so that culling never drops an
 // instance the exact ray enters; a culling test that keeps too much costs a walk, never a result.
 VS_ALWAYS_INLINE LFloat vsCullPad(VS_IN(WorldRay) ray) {
-  LVec3 o = abs(ray.eyeHigh) + abs(ray.start);
-  VS_PRECISE LVec3 reach = abs(ray.d) * max(abs(ray.tMin), abs(ray.tMax));
+  LVec3 o = vsAbs3(ray.eyeHigh) + vsAbs3(ray.start);
+  VS_PRECISE LVec3 reach = vsAbs3(ray.d) * max(abs(ray.tMin), abs(ray.tMax));
   VS_PRECISE LFloat scale = max(max(o.x, o.y), o.z) + max(max(reach.x, reach.y), reach.z);
   return scale * (1.0f / 1048576.0f);
 }

@@ -304,10 +304,12 @@ WorldRay vsWorldRay(vec3 origin, vec3 d, float tMin, float tMax) {
 }
 
 // Where a ray enters an instance's world box grown by vsCullPad, or VS_T_INFINITY when it misses it.
-float vsInstanceEntry(WorldRay ray, uint instanceIndex) {
+float vsInstanceEntry(VS_IN(WorldRay) ray, uint instanceIndex) {
   return vsInstanceBoxEntry(ray, VS_READ_INSTANCE_BOUNDS_MIN(instanceIndex), VS_READ_INSTANCE_BOUNDS_MAX(instanceIndex));
 }
-float vsInstanceBaseT(WorldRay ray, uint instanceIndex) { return vsBaseT(ray, vsInstanceEntry(ray, instanceIndex)); }
+float vsInstanceBaseT(VS_IN(WorldRay) ray, uint instanceIndex) {
+  return vsBaseT(ray, vsInstanceEntry(ray, instanceIndex));
+}
 
 // The brick-space ray of one instance, re-based at tBase: brick-space t is the world t less tBase.
 void vsInstanceRay(WorldRay ray, uint instanceIndex, float tBase, VS_OUT(vec3) lo, VS_OUT(vec3) ld) {
