@@ -437,6 +437,8 @@ VulkanContext::VulkanContext(const VulkanHostDevice& host) {
     for (const std::string& f : nullFields) list += (list.empty() ? "" : ", ") + f;
     throwBadInput("VulkanHostDevice: null " + list + " (every handle and getInstanceProcAddr must be the host's)");
   }
+  // The host made the instance, so the drivers and layers are loaded now (see keepLoadedLibrariesMapped).
+  keepLoadedLibrariesMapped();
   onHostDevice_ = true;
   instanceHandle_ = host.instance;
   deviceHandle_ = host.device;
