@@ -52,6 +52,13 @@ inline void beginRay(gpu::SceneArrays& arrays, RayState& r, const WorldRay& ray)
   r.nextCandidate = 0;
 }
 
+// The order in which a ray visits its candidates: nearest entry first, ties by instance index.
+inline void sortCandidates(RayState& r) {
+  std::sort(r.candidates.begin(), r.candidates.begin() + r.candidateCount, [](const Candidate& a, const Candidate& b) {
+    return a.entry < b.entry || (a.entry == b.entry && a.instance < b.instance);
+  });
+}
+
 // Instances whose world boxes the ray enters within [tMin, tMax], in order of entry, found by the portable
 // stackless BVH walk; false when there are more than kMaxCandidates.
 inline bool collectCandidates(gpu::SceneArrays& arrays, RayState& r) {
@@ -67,9 +74,7 @@ inline bool collectCandidates(gpu::SceneArrays& arrays, RayState& r) {
     if (r.candidateCount == kMaxCandidates) return false;
     r.candidates[r.candidateCount++] = {t, instance};
   }
-  std::sort(r.candidates.begin(), r.candidates.begin() + r.candidateCount, [](const Candidate& a, const Candidate& b) {
-    return a.entry < b.entry || (a.entry == b.entry && a.instance < b.instance);
-  });
+  sortCandidates(r);
   return true;
 }
 
