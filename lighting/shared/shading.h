@@ -126,11 +126,18 @@ vec3 vsPlaneSlope(VS_IN(ShadeView) view, ivec2 base, vec3 rel, vec3 n) {
 
 // The stored depth of texel t of the view's window, clamped to the window. A cascade's layer is a ring over
 // its world-fixed grid (DESIGN.md §11): window texel t lives at (t + ring offset) mod w, w a power of two.
-float vsStoredDepth(VS_IN(ShadeView) view, ivec2 t) {
+// The store index of the first texel of window row y (clamped), and the offset of window column x (clamped)
+// within a row: a texel's place is their sum.
+int vsStoredRow(VS_IN(ShadeView) view, int y) {
   int w = view.info.y;
-  ivec2 c = clamp(t, ivec2(0), ivec2(w - 1));
-  ivec2 s = ivec2((c.x + view.trace.y) & (w - 1), (c.y + view.trace.z) & (w - 1));
-  return shadowTexels[view.info.x + s.y * w + s.x];
+  return view.info.x + ((clamp(y, 0, w - 1) + view.trace.z) & (w - 1)) * w;
+}
+int vsStoredColumn(VS_IN(ShadeView) view, int x) {
+  int w = view.info.y;
+  return (clamp(x, 0, w - 1) + view.trace.y) & (w - 1);
+}
+float vsStoredDepth(VS_IN(ShadeView) view, ivec2 t) {
+  return shadowTexels[vsStoredRow(view, t.y) + vsStoredColumn(view, t.x)];
 }
 
 // The receiver's depth as texel t sees it: its plane at the texel's ray, but never deeper than the receiver
@@ -154,8 +161,22 @@ float vsCompare(VS_IN(ShadeView) view, ivec2 t, VS_IN(VsReceiver) r) {
 float vsFilterBox(VS_IN(ShadeView) view, vec2 texel, VS_IN(VsReceiver) r, int radius) {
   ivec2 centre = ivec2(floor(texel));
   float sum = 0.0f;
-  for (int dy = -radius; dy <= radius; ++dy)
-    for (int dx = -radius; dx <= radius; ++dx) sum += vsCompare(view, centre + ivec2(dx, dy), r);
+  if (r.plane == VS_RECEIVER_PLANE_AFFINE) {
+    // vsCompare's arithmetic with each row's share of it done once per row: the kernel is centred on the
+    // plane's base texel (both are floor(texel)), so a tap's offset from the base is (dx, dy), and its plane
+    // depth (slope.x + dx * slope.y) + dy * slope.z is the very sum vsReceiverDepth forms.
+    for (int dy = -radius; dy <= radius; ++dy) {
+      VS_PRECISE float rowShare = float(dy) * r.slope.z;
+      int row = vsStoredRow(view, centre.y + dy);
+      for (int dx = -radius; dx <= radius; ++dx) {
+        VS_PRECISE float plane = (r.slope.x + float(dx) * r.slope.y) + rowShare;
+        sum += shadowTexels[row + vsStoredColumn(view, centre.x + dx)] < min(plane, r.depth) ? 0.0f : 1.0f;
+      }
+    }
+  } else {
+    for (int dy = -radius; dy <= radius; ++dy)
+      for (int dx = -radius; dx <= radius; ++dx) sum += vsCompare(view, centre + ivec2(dx, dy), r);
+  }
   float side = float(2 * radius + 1);
   return sum / (side * side);
 }
