@@ -21,7 +21,7 @@ install(TARGETS voxshadow RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 foreach(module voxel bvh compute lighting)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${module}/
     DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/voxshadow/${module}
-    FILES_MATCHING PATTERN "*.h"
+    FILES_MATCHING PATTERN "*.h" PATTERN "*.glsl"
     PATTERN "shaders" EXCLUDE)
 endforeach()
 

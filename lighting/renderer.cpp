@@ -388,6 +388,34 @@ std::vector<std::vector<glm::vec4>> FrameRenderer::moments() const {
   return out;
 }
 
+VulkanShadows FrameRenderer::vulkanShadows() const {
+  InUse use(*this, "vulkanShadows");
+  if (tracerAlive_.expired())
+    throwRuntime("FrameRenderer::vulkanShadows: the renderer's tracer was destroyed");
+  if (!tracer_.vulkan())
+    throwBadInput("FrameRenderer::vulkanShadows: the renderer's tracer is not a Vulkan tracer (a CPU tracer's "
+                  "layers are on the host: layers())");
+  Tracer::Exclusive hold(tracer_);
+  State& s = *state_;
+  const bool layerView = s.options.debug == DebugView::Layer || s.options.debug == DebugView::Moments;
+  if (!s.valid || !s.lighting || s.options.shadows != ShadowSource::Maps || layerView)
+    throwRuntime("FrameRenderer::vulkanShadows: the last frame left no shadow maps on the device (render a "
+                 "frame with shadow maps first; ray-traced shadows and the layer and moment views have none)");
+  // Texels traced by frames that shaded no pixel wait on the host (pendingTexels), or, past a sixteenth of the
+  // store, the pass holds none of the frame: written now.
+  if (!s.lightingHeld) {
+    if (s.storeOnDevice || !s.lighting->holdsStore(s.storeTexels.size()))
+      throwRuntime("FrameRenderer::vulkanShadows: the device holds no whole frame (render a frame first)");
+    const std::pair<std::size_t, std::size_t> whole{0, s.storeTexels.size()};
+    s.lighting->writeStore(s.storeTexels, std::span(&whole, 1));
+    s.lightingHeld = true;
+  } else if (!s.pendingTexels.empty()) {
+    s.lighting->writeStore(s.storeTexels, s.pendingTexels);
+  }
+  s.pendingTexels.clear();
+  return s.lighting->shadows(s.frame.width, s.frame.height);
+}
+
 const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptions& options) {
   InUse use(*this, "render");
   if (tracerAlive_.expired())

@@ -87,6 +87,8 @@ struct RenderedFrame {
   FrameStats stats;
 };
 
+struct VulkanShadows;  // lighting/vulkan_shadows.h
+
 class FrameRenderer {
  public:
   // `tracer` traces every ray kind; on the Vulkan backend the lighting pass also runs on its device. The
@@ -125,6 +127,12 @@ class FrameRenderer {
   // read back from the device now; there, after a frame without shadow maps (ray-traced shadows), the device
   // no longer holds them and this throws vs::Error until the next frame with maps.
   std::vector<std::vector<glm::vec4>> moments() const;
+  // The last frame's shadows on the Vulkan device, for a host engine's shader that includes
+  // lighting/shared/shadows.glsl (lighting/vulkan_shadows.h: the buffers, their lifetime and state). Nothing is
+  // read back. Preconditions: a Vulkan tracer (else vs::Error(BadInput)); a last frame with shadow maps
+  // (not RenderOptions::shadows Raytraced, nor a layer or moment debug view) that completed (else
+  // vs::Error(Runtime)).
+  VulkanShadows vulkanShadows() const;
   // Makes the next frame redo everything (a benchmark's forced full frame).
   void invalidateLayers();
 

@@ -489,6 +489,51 @@ void VulkanLighting::readMoments(std::span<glm::vec4> out, LightingTraffic* traf
   if (traffic) traffic->readBack += out.size() * sizeof(glm::vec4);
 }
 
+void VulkanLighting::writeStore(std::span<const float> store,
+                                std::span<const std::pair<std::size_t, std::size_t>> ranges, LightingTraffic* traffic) {
+  if (!impl_->holdsStore(store.size()))
+    throwBadInput("lighting: the pass holds no layer store of " + std::to_string(store.size()) + " texels to write");
+  for (const auto& [first, count] : ranges)
+    if (first > store.size() || count > store.size() - first)
+      throwBadInput("lighting: texel range [" + std::to_string(first) + ", +" + std::to_string(count) +
+                    ") outside the store of " + std::to_string(store.size()));
+  auto* texels = static_cast<float*>(impl_->buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].mapped);
+  for (const auto& [first, count] : ranges) {
+    std::memcpy(texels + first, store.data() + first, count * sizeof(float));
+    if (traffic) traffic->uploaded += count * sizeof(float);
+  }
+}
+
+VulkanShadows VulkanLighting::shadows(int width, int height) const {
+  const Impl& p = *impl_;
+  if (p.heldSizes.size() != 6 || p.heldSizes[0] != std::size_t(width) * std::size_t(height))
+    throwRuntime("lighting: the pass holds no whole frame of " + std::to_string(width) + "x" + std::to_string(height) +
+                 " pixels");
+  // An empty submission whose barrier orders every earlier write on the queue (the host's to mapped memory,
+  // the trace and lighting passes') before every later read.
+  p.context.submitAndWait([&](VkCommandBuffer cmd) {
+    auto all = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+    all.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT | VK_ACCESS_HOST_WRITE_BIT;
+    all.dstAccessMask = VK_ACCESS_MEMORY_READ_BIT;
+    p.context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                                               VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, 0, 1, &all, 0, nullptr, 0, nullptr);
+  });
+  VulkanShadows out;
+  out.texels = p.buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].get();
+  out.views = p.buffers[gpu::VS_LIGHTING_BINDING_VIEWS].get();
+  out.viewTexels = p.viewTexels.get();
+  out.lights = p.buffers[gpu::VS_LIGHTING_BINDING_LIGHTS].get();
+  out.momentsPositive = p.buffers[gpu::VS_LIGHTING_BINDING_MOMENTS].get();
+  out.momentsNegative = p.buffers[gpu::VS_LIGHTING_BINDING_MOMENTS_NEGATIVE].get();
+  out.gbuffer = p.buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].get();
+  out.visibility = p.buffers[gpu::VS_LIGHTING_BINDING_VISIBILITY].get();
+  out.viewCount = std::uint32_t(p.heldSizes[2]);
+  out.lightCount = std::uint32_t(p.heldSizes[1]);
+  out.width = std::uint32_t(width);
+  out.height = std::uint32_t(height);
+  return out;
+}
+
 void VulkanLighting::readStore(std::span<float> out, LightingTraffic* traffic) const {
   if (!impl_->holdsStore(out.size()))
     throwBadInput("lighting: the pass holds no layer store of " + std::to_string(out.size()) + " texels to read");

@@ -11,6 +11,7 @@
 #include "compute/vulkan/vulkan_context.h"
 #include "lighting/deferred.h"
 #include "lighting/evsm.h"
+#include "lighting/vulkan_shadows.h"
 
 namespace vs {
 
@@ -102,6 +103,15 @@ class VulkanLighting {
   // Copies the store's texels to `out` (as long as the held store, else vs::Error(BadInput)): a host copy,
   // asked for by a caller, of layers that stayed on the device. Adds the bytes to traffic->readBack.
   void readStore(std::span<float> out, LightingTraffic* traffic = nullptr) const;
+  // Writes ranges [first, first + count) of `store` (ShadeInputs::shadowTexels' layout) into the held layer
+  // store: texels traced since the pass last ran. Precondition: holdsStore(store.size()) (else
+  // vs::Error(BadInput)); each range inside it.
+  void writeStore(std::span<const float> store, std::span<const std::pair<std::size_t, std::size_t>> ranges,
+                  LightingTraffic* traffic = nullptr);
+  // The held frame's buffers for a host's shader (lighting/vulkan_shadows.h), after a memory barrier on the
+  // queue that makes every earlier write visible to later submissions. Precondition: the pass holds a whole
+  // frame of `width` x `height` pixels (else vs::Error(Runtime)).
+  VulkanShadows shadows(int width, int height) const;
   // Copies the moment store (ShadeInputs::moments' layout) to `out`, as long as the held one (else
   // vs::Error(BadInput)).
   void readMoments(std::span<glm::vec4> out, LightingTraffic* traffic = nullptr) const;

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cstdlib>
 #include <cstring>
@@ -22,8 +23,10 @@
 #include "compute/vulkan/vulkan_context.h"
 #include "compute/vulkan/vulkan_tracer.h"
 #include "lighting/renderer.h"
+#include "lighting/vulkan_shadows.h"
 #include "support/demo_frames.h"
 #include "voxel/error.h"
+#include "host_shadows.spv.h"  // tests/shaders/host_shadows.comp
 
 // LeakSanitizer's switches, present only in sanitized builds (weak: null otherwise).
 extern "C" void __lsan_disable() __attribute__((weak));
@@ -311,6 +314,9 @@ class HostEngine {
     return h;
   }
   VkDevice device() const { return device_; }
+  VkPhysicalDevice physicalDevice() const { return physical_; }
+  std::uint32_t queueFamily() const { return family_; }
+  VkQueue queue() const { return queue_; }
 
   std::vector<std::string> messages() {
     std::lock_guard lock(mutex_);
@@ -461,6 +467,239 @@ TEST(Embedding, ADeviceLackingWhatTheLibraryNeedsIsRefusedNamingEachThing) {
       << nulls;
   host.destroy();
   EXPECT_TRUE(host.messages().empty()) << host.messages().front();
+}
+
+// A host engine's own compute pass (tests/shaders/host_shadows.comp) on its own device: its G-buffer in a buffer
+// of its own, voxshadow's shadow buffers bound after its own bindings, one shadow term per pixel and light.
+class HostShadowPass {
+ public:
+  explicit HostShadowPass(const HostEngine& host) : host_(host), device_(host.device()) {
+    std::vector<VkDescriptorSetLayoutBinding> bindings;
+    for (std::uint32_t b = 0; b < 8; ++b) {
+      VkDescriptorSetLayoutBinding binding{};
+      binding.binding = b;
+      // shadows.glsl's +1 (binding 4 here): the view records as a uniform texel buffer.
+      binding.descriptorType = b == 4 ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      binding.descriptorCount = 1;
+      binding.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+      bindings.push_back(binding);
+    }
+    VkDescriptorSetLayoutCreateInfo dli{};
+    dli.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+    dli.bindingCount = std::uint32_t(bindings.size());
+    dli.pBindings = bindings.data();
+    check(vkCreateDescriptorSetLayout(device_, &dli, nullptr, &setLayout_), "vkCreateDescriptorSetLayout");
+    const VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, 2 * sizeof(std::uint32_t)};
+    VkPipelineLayoutCreateInfo pli{};
+    pli.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+    pli.setLayoutCount = 1;
+    pli.pSetLayouts = &setLayout_;
+    pli.pushConstantRangeCount = 1;
+    pli.pPushConstantRanges = &range;
+    check(vkCreatePipelineLayout(device_, &pli, nullptr, &layout_), "vkCreatePipelineLayout");
+    VkShaderModuleCreateInfo smi{};
+    smi.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+    smi.codeSize = sizeof host_shadows;
+    smi.pCode = host_shadows;
+    check(vkCreateShaderModule(device_, &smi, nullptr, &module_), "vkCreateShaderModule");
+    VkComputePipelineCreateInfo cpi{};
+    cpi.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+    cpi.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    cpi.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    cpi.stage.module = module_;
+    cpi.stage.pName = "main";
+    cpi.layout = layout_;
+    check(vkCreateComputePipelines(device_, VK_NULL_HANDLE, 1, &cpi, nullptr, &pipeline_), "vkCreateComputePipelines");
+    const std::array<VkDescriptorPoolSize, 2> sizes{{{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 7},
+                                                     {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1}}};
+    VkDescriptorPoolCreateInfo dpi{};
+    dpi.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    dpi.maxSets = 1;
+    dpi.poolSizeCount = std::uint32_t(sizes.size());
+    dpi.pPoolSizes = sizes.data();
+    check(vkCreateDescriptorPool(device_, &dpi, nullptr, &pool_), "vkCreateDescriptorPool");
+    VkDescriptorSetAllocateInfo dai{};
+    dai.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    dai.descriptorPool = pool_;
+    dai.descriptorSetCount = 1;
+    dai.pSetLayouts = &setLayout_;
+    check(vkAllocateDescriptorSets(device_, &dai, &set_), "vkAllocateDescriptorSets");
+    VkCommandPoolCreateInfo cpci{};
+    cpci.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    cpci.queueFamilyIndex = host.queueFamily();
+    check(vkCreateCommandPool(device_, &cpci, nullptr, &commandPool_), "vkCreateCommandPool");
+  }
+  ~HostShadowPass() {
+    for (auto& [buffer, memory] : buffers_) {
+      vkDestroyBuffer(device_, buffer, nullptr);
+      vkFreeMemory(device_, memory, nullptr);
+    }
+    vkDestroyCommandPool(device_, commandPool_, nullptr);
+    vkDestroyDescriptorPool(device_, pool_, nullptr);
+    vkDestroyPipeline(device_, pipeline_, nullptr);
+    vkDestroyShaderModule(device_, module_, nullptr);
+    vkDestroyPipelineLayout(device_, layout_, nullptr);
+    vkDestroyDescriptorSetLayout(device_, setLayout_, nullptr);
+  }
+  HostShadowPass(const HostShadowPass&) = delete;
+  HostShadowPass& operator=(const HostShadowPass&) = delete;
+
+  // Each pixel's shadow term per light, from the host's copy of the frame's G-buffer and voxshadow's buffers.
+  std::vector<float> run(const VulkanShadows& shadows, const std::vector<gpu::GBufferTexel>& gbuffer) {
+    const std::size_t pixels = gbuffer.size();
+    const std::size_t terms = pixels * shadows.lightCount;
+    auto [gbufferBuffer, gbufferMemory] = hostBuffer(pixels * sizeof(gpu::GBufferTexel));
+    auto [termBuffer, termMemory] = hostBuffer(terms * sizeof(float));
+    void* mapped = nullptr;
+    check(vkMapMemory(device_, gbufferMemory, 0, VK_WHOLE_SIZE, 0, &mapped), "vkMapMemory");
+    std::memcpy(mapped, gbuffer.data(), pixels * sizeof(gpu::GBufferTexel));
+    vkUnmapMemory(device_, gbufferMemory);
+    const std::array<VkBuffer, 8> bound{gbufferBuffer, shadows.visibility, termBuffer, shadows.texels, VK_NULL_HANDLE,
+                                        shadows.lights, shadows.momentsPositive, shadows.momentsNegative};
+    std::array<VkDescriptorBufferInfo, 8> infos{};
+    std::array<VkWriteDescriptorSet, 8> writes{};
+    for (std::uint32_t b = 0; b < 8; ++b) {
+      infos[b] = {bound[b], 0, VK_WHOLE_SIZE};
+      writes[b].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+      writes[b].dstSet = set_;
+      writes[b].dstBinding = b;
+      writes[b].descriptorCount = 1;
+      writes[b].descriptorType = b == 4 ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      if (b == 4) writes[b].pTexelBufferView = &shadows.viewTexels;
+      else writes[b].pBufferInfo = &infos[b];
+    }
+    vkUpdateDescriptorSets(device_, std::uint32_t(writes.size()), writes.data(), 0, nullptr);
+    VkCommandBufferAllocateInfo cai{};
+    cai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    cai.commandPool = commandPool_;
+    cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cai.commandBufferCount = 1;
+    VkCommandBuffer cmd = VK_NULL_HANDLE;
+    check(vkAllocateCommandBuffers(device_, &cai, &cmd), "vkAllocateCommandBuffers");
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set_, 0, nullptr);
+    const std::uint32_t push[2] = {std::uint32_t(pixels), shadows.lightCount};
+    vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, push);
+    vkCmdDispatch(cmd, std::uint32_t((pixels + 63) / 64), 1, 1);
+    VkMemoryBarrier toHost{};
+    toHost.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    toHost.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
+                         nullptr, 0, nullptr);
+    check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &cmd;
+    check(vkQueueSubmit(host_.queue(), 1, &submit, VK_NULL_HANDLE), "vkQueueSubmit");
+    check(vkQueueWaitIdle(host_.queue()), "vkQueueWaitIdle");
+    vkFreeCommandBuffers(device_, commandPool_, 1, &cmd);
+    std::vector<float> out(terms);
+    check(vkMapMemory(device_, termMemory, 0, VK_WHOLE_SIZE, 0, &mapped), "vkMapMemory");
+    std::memcpy(out.data(), mapped, terms * sizeof(float));
+    vkUnmapMemory(device_, termMemory);
+    return out;
+  }
+
+ private:
+  static void check(VkResult r, const char* call) {
+    if (r != VK_SUCCESS) throw std::runtime_error(std::string("the host engine's ") + call + " failed");
+  }
+  std::pair<VkBuffer, VkDeviceMemory> hostBuffer(std::size_t bytes) {
+    VkBufferCreateInfo bci{};
+    bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    bci.size = std::max<std::size_t>(bytes, 16);
+    bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+    VkBuffer buffer = VK_NULL_HANDLE;
+    check(vkCreateBuffer(device_, &bci, nullptr, &buffer), "vkCreateBuffer");
+    VkMemoryRequirements req{};
+    vkGetBufferMemoryRequirements(device_, buffer, &req);
+    VkPhysicalDeviceMemoryProperties props{};
+    vkGetPhysicalDeviceMemoryProperties(host_.physicalDevice(), &props);
+    const VkMemoryPropertyFlags want = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    std::uint32_t type = props.memoryTypeCount;
+    for (std::uint32_t t = 0; t < props.memoryTypeCount && type == props.memoryTypeCount; ++t)
+      if ((req.memoryTypeBits & (1u << t)) && (props.memoryTypes[t].propertyFlags & want) == want) type = t;
+    if (type == props.memoryTypeCount) throw std::runtime_error("the host engine found no host-visible memory");
+    VkMemoryAllocateInfo mai{};
+    mai.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    mai.allocationSize = req.size;
+    mai.memoryTypeIndex = type;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    check(vkAllocateMemory(device_, &mai, nullptr, &memory), "vkAllocateMemory");
+    check(vkBindBufferMemory(device_, buffer, memory, 0), "vkBindBufferMemory");
+    buffers_.push_back({buffer, memory});
+    return {buffer, memory};
+  }
+
+  const HostEngine& host_;
+  VkDevice device_;
+  VkDescriptorSetLayout setLayout_ = VK_NULL_HANDLE;
+  VkPipelineLayout layout_ = VK_NULL_HANDLE;
+  VkShaderModule module_ = VK_NULL_HANDLE;
+  VkPipeline pipeline_ = VK_NULL_HANDLE;
+  VkDescriptorPool pool_ = VK_NULL_HANDLE;
+  VkDescriptorSet set_ = VK_NULL_HANDLE;
+  VkCommandPool commandPool_ = VK_NULL_HANDLE;
+  std::vector<std::pair<VkBuffer, VkDeviceMemory>> buffers_;
+};
+
+// The host's shader, including the installed lighting/shared/shadows.glsl and reading the frame's buffers in
+// place (nothing read back), gives every pixel's shadow term bit for bit as the library's lighting pass: the
+// demo's three lights (a sun's pcf5 cascades with contact rays, a spot's poisson16, a point light's cube faces),
+// after a first frame and after a camera move that scrolls the cascades.
+TEST(Embedding, AHostShaderGetsTheLibrarysShadowTermsFromItsBuffers) {
+  dispatch.reset();
+  Scene scene = test::demoScene("embedding_host_shadows", 64, 0.0f);
+  HostEngine host;
+  {
+    VulkanOptions o;
+    o.context = std::make_shared<VulkanContext>(host.handles());
+    o.validation = true;
+    std::unique_ptr<Tracer> tracer = makeVulkanTracer(o);
+    FrameRenderer renderer(*tracer);
+    HostShadowPass pass(host);
+    for (int step = 0; step < 2; ++step) {
+      if (step == 1) {
+        CameraDesc camera = *scene.desc().camera;
+        camera.position += glm::vec3(3.0f, 0.0f, 1.5f);
+        camera.target += glm::vec3(3.0f, 0.0f, 1.5f);
+        scene.setCamera(camera);
+      }
+      const RenderedFrame& frame = renderer.render(scene, smallFrame());
+      const VulkanShadows shadows = renderer.vulkanShadows();
+      EXPECT_EQ(shadows.lightCount, 3u);
+      EXPECT_EQ(shadows.viewCount, std::uint32_t(frame.views.size()));
+      EXPECT_EQ(shadows.width * shadows.height, std::uint32_t(frame.gbuffer.texels.size()));
+      const std::vector<float> terms = pass.run(shadows, frame.gbuffer.texels);
+      ASSERT_EQ(terms.size(), frame.shadowTerms.size());
+      std::size_t differ = 0, shadowed = 0;
+      for (std::size_t i = 0; i < terms.size(); ++i) {
+        differ += std::memcmp(&terms[i], &frame.shadowTerms[i], sizeof(float)) != 0;
+        shadowed += frame.shadowTerms[i] < 1.0f;
+      }
+      EXPECT_EQ(differ, 0u) << "step " << step << ": of " << terms.size() << " terms";
+      EXPECT_GT(shadowed, terms.size() / 20) << "step " << step << ": too few shadowed terms to show anything";
+    }
+    // A renderer on a CPU tracer has nothing on a device.
+    std::unique_ptr<Tracer> cpu = makeCpuTracer();
+    FrameRenderer cpuRenderer(*cpu);
+    (void)cpuRenderer.render(scene, smallFrame());
+    EXPECT_NE(errorOf([&] { (void)cpuRenderer.vulkanShadows(); }).find("not a Vulkan tracer"), std::string::npos);
+    // Nor does a frame with ray-traced shadows.
+    RenderOptions raytraced = smallFrame();
+    raytraced.shadows = ShadowSource::Raytraced;
+    (void)renderer.render(scene, raytraced);
+    EXPECT_NE(errorOf([&] { (void)renderer.vulkanShadows(); }).find("no shadow maps"), std::string::npos);
+  }
+  host.destroy();
+  const std::vector<std::string> messages = host.messages();
+  EXPECT_TRUE(messages.empty()) << messages.size() << " validation messages, the first: " << messages.front();
 }
 
 TEST(Embedding, DestroyingInTheDocumentedOrderLeaksNothing) {

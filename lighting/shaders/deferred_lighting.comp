@@ -25,22 +25,7 @@ layout(std430, set = 0, binding = VS_LIGHTING_BINDING_MOMENTS_NEGATIVE) readonly
 
 layout(push_constant) uniform PushBlock { ShadePush push; };
 
-vec4 vsLoadMoments(int i) { return vec4(momentPositive[i], momentNegative[i]); }
-
-// ShadeView record i from its VS_SHADE_VIEW_TEXELS texels, each member at the texel VS_SHADE_VIEW_TEXEL_* names.
-vec4 vsViewTexel(int i, int t) { return uintBitsToFloat(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + t)); }
-ShadeView vsLoadView(int i) {
-  ShadeView v;
-  const int m = VS_SHADE_VIEW_TEXEL_EYE_TO_CLIP, n = VS_SHADE_VIEW_TEXEL_CLIP_TO_EYE;
-  v.eyeToClip = mat4(vsViewTexel(i, m), vsViewTexel(i, m + 1), vsViewTexel(i, m + 2), vsViewTexel(i, m + 3));
-  v.clipToEye = mat4(vsViewTexel(i, n), vsViewTexel(i, n + 1), vsViewTexel(i, n + 2), vsViewTexel(i, n + 3));
-  v.eye = vsViewTexel(i, VS_SHADE_VIEW_TEXEL_EYE);
-  v.eyeLow = vsViewTexel(i, VS_SHADE_VIEW_TEXEL_EYE_LOW);
-  v.split = vsViewTexel(i, VS_SHADE_VIEW_TEXEL_SPLIT);
-  v.info = ivec4(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + VS_SHADE_VIEW_TEXEL_INFO));
-  v.trace = ivec4(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + VS_SHADE_VIEW_TEXEL_TRACE));
-  return v;
-}
+#include "lighting/shared/shade_records.h"
 
 #ifdef VS_LIGHTING_VARIANT
 // The build that pipeline variants specialise (lighting/lighting_variant.h): the variant's constants

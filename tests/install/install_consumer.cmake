@@ -4,9 +4,10 @@
 # nothing; a translation unit that links voxshadow::voxshadow only compiles with its own flags (no GLM
 # configuration macro, no floating-point flag); one that links voxshadow::exact_fp gets the exact flags; the
 # core's arithmetic headers refuse a translation unit without them; the scene and CPU tracer headers bring no
-# Vulkan header. Then it runs the consumers and the installed CLI.
+# Vulkan header; a host engine's shader (tests/shaders/host_shadows.comp) compiles against the installed GLSL
+# include (lighting/shared/shadows.glsl) alone. Then it runs the consumers and the installed CLI.
 # Variables: BUILD_DIR, SOURCE_DIR (tests/install/consumer), WORK_DIR, GENERATOR, CXX, CXX_LAUNCHER,
-# BUILD_TYPE.
+# BUILD_TYPE, GLSLANG (glslangValidator), HOST_SHADER.
 function(run)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE status)
   if(NOT status EQUAL 0)
@@ -21,11 +22,14 @@ file(MAKE_DIRECTORY ${WORK_DIR})
 
 run(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
 foreach(file bin/voxshadow include/voxshadow/compute/shared/traverse.h include/voxshadow/lighting/scene.h
+             include/voxshadow/lighting/shared/shadows.glsl include/voxshadow/lighting/vulkan_shadows.h
              lib/cmake/voxshadow/voxshadowConfig.cmake lib/cmake/voxshadow/voxshadowConfigVersion.cmake)
   if(NOT EXISTS ${prefix}/${file})
     message(FATAL_ERROR "install_consumer: ${prefix}/${file} was not installed")
   endif()
 endforeach()
+# The host's shader, with the installed headers as its only include root.
+run(${GLSLANG} --target-env vulkan1.1 -I${prefix}/include/voxshadow -o ${WORK_DIR}/host_shadows.spv ${HOST_SHADER})
 
 # Configure, keeping the output: find_package(voxshadow) must print nothing when all is found.
 execute_process(COMMAND ${CMAKE_COMMAND} -S ${SOURCE_DIR} -B ${WORK_DIR}/build -G ${GENERATOR}
