@@ -17,6 +17,16 @@
 namespace vs {
 namespace {
 
+// A physical device's queue families, in index order.
+std::vector<VkQueueFamilyProperties> queueFamilies(const vk::Functions& fn, VkPhysicalDevice device) {
+  std::uint32_t count = 0;
+  fn.vkGetPhysicalDeviceQueueFamilyProperties(device, &count, nullptr);
+  std::vector<VkQueueFamilyProperties> families(count);
+  fn.vkGetPhysicalDeviceQueueFamilyProperties(device, &count, families.data());
+  families.resize(count);
+  return families;
+}
+
 // LeakSanitizer scans the globals of the libraries mapped when the process ends. The Vulkan loader unloads a
 // driver at vkDestroyInstance, and memory that the driver keeps for the whole process behind one of its
 // globals (lavapipe's per-L3-cache affinity masks on AMD Zen processors, 128 bytes each, allocated once) is
@@ -151,10 +161,8 @@ VulkanDeviceInfo describe(const vk::Functions& fn, VkPhysicalDevice pd, std::uin
     if (mem.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
       info.deviceLocalBytes = std::max<std::uint64_t>(info.deviceLocalBytes, mem.memoryHeaps[h].size);
 
-  std::uint32_t familyCount = 0;
-  fn.vkGetPhysicalDeviceQueueFamilyProperties(pd, &familyCount, nullptr);
-  std::vector<VkQueueFamilyProperties> families(familyCount);
-  fn.vkGetPhysicalDeviceQueueFamilyProperties(pd, &familyCount, families.data());
+  const std::vector<VkQueueFamilyProperties> families = queueFamilies(fn, pd);
+  const std::uint32_t familyCount = std::uint32_t(families.size());
   // Prefer a compute family without graphics (an async-compute queue), else any compute family.
   for (int pass = 0; pass < 2 && !info.hasComputeQueue; ++pass) {
     for (std::uint32_t f = 0; f < familyCount; ++f) {
@@ -275,10 +283,8 @@ std::vector<std::string> missingVulkanRequirements(const vk::Functions& fn, VkPh
   if (!supported.shaderFloat64) missing.push_back("the feature shaderFloat64 (the device does not support it)");
   else if (!enabledFeatures.shaderFloat64)
     missing.push_back("the feature shaderFloat64 (supported, but not enabled when the VkDevice was created)");
-  std::uint32_t familyCount = 0;
-  fn.vkGetPhysicalDeviceQueueFamilyProperties(physicalDevice, &familyCount, nullptr);
-  std::vector<VkQueueFamilyProperties> families(familyCount);
-  fn.vkGetPhysicalDeviceQueueFamilyProperties(physicalDevice, &familyCount, families.data());
+  const std::vector<VkQueueFamilyProperties> families = queueFamilies(fn, physicalDevice);
+  const std::uint32_t familyCount = std::uint32_t(families.size());
   if (queueFamily >= familyCount)
     missing.push_back("queue family " + std::to_string(queueFamily) + " (the device has " + std::to_string(familyCount) +
                       ")");
@@ -473,11 +479,7 @@ VulkanContext::VulkanContext(const VulkanHostDevice& host) {
   info_ = describe(fn_, physical_, 0);
   // The host's device has no index in a list the library made; its queue family is the one it named.
   info_.computeQueueFamily = host.queueFamily;
-  std::uint32_t familyCount = 0;
-  fn_.vkGetPhysicalDeviceQueueFamilyProperties(physical_, &familyCount, nullptr);
-  std::vector<VkQueueFamilyProperties> families(familyCount);
-  fn_.vkGetPhysicalDeviceQueueFamilyProperties(physical_, &familyCount, families.data());
-  info_.timestampValidBits = families[host.queueFamily].timestampValidBits;
+  info_.timestampValidBits = queueFamilies(fn_, physical_)[host.queueFamily].timestampValidBits;
   fn_.vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
   createPoolAndFence();
 }

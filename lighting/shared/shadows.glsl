@@ -7,6 +7,7 @@
 //   #include "lighting/shared/shadows.glsl"   // with -I <prefix>/include/voxshadow
 //   ...
 //   float s = vsShadowTerm(shadeLights[l], g, visibility, false);  // 1 lit, 0 shadowed
+//   vec3 added = vsLightRadiance(shadeLights[l], g, s);            // the light's share, as the library adds it
 //
 // Bindings, in order from VS_SHADOWS_FIRST_BINDING, each the buffer vs::FrameRenderer::vulkanShadows() names:
 //   +0 storage buffer: the shadow layers' texels (VulkanShadows::texels)
