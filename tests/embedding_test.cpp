@@ -24,7 +24,10 @@
 #include "compute/vulkan/vulkan_tracer.h"
 #include "lighting/renderer.h"
 #include "lighting/vulkan_shadows.h"
+#include "lighting/scene_file.h"
 #include "support/demo_frames.h"
+#include "support/test_paths.h"
+#include "voxel/demo_world.h"
 #include "voxel/error.h"
 #include "host_shadows.spv.h"  // tests/shaders/host_shadows.comp
 
@@ -652,7 +655,8 @@ class HostShadowPass {
 // The host's shader, including the installed lighting/shared/shadows.glsl and reading the frame's buffers in
 // place (nothing read back), gives every pixel's shadow term bit for bit as the library's lighting pass: the
 // demo's three lights (a sun's pcf5 cascades with contact rays, a spot's poisson16, a point light's cube faces),
-// after a first frame and after a camera move that scrolls the cascades.
+// after a first frame and after a camera move that scrolls the cascades; and with every light's filter EVSM (the
+// moment store's buffers).
 TEST(Embedding, AHostShaderGetsTheLibrarysShadowTermsFromItsBuffers) {
   dispatch.reset();
   Scene scene = test::demoScene("embedding_host_shadows", 64, 0.0f);
@@ -664,14 +668,22 @@ TEST(Embedding, AHostShaderGetsTheLibrarysShadowTermsFromItsBuffers) {
     std::unique_ptr<Tracer> tracer = makeVulkanTracer(o);
     FrameRenderer renderer(*tracer);
     HostShadowPass pass(host);
-    for (int step = 0; step < 2; ++step) {
+    // The demo with every light's filter EVSM: its terms read the moment store's two buffers.
+    SceneDesc evsmDesc = parseSceneFile(writeDemoWorld(test::scratchDir("embedding_host_shadows_evsm")).back());
+    for (LightDesc& l : evsmDesc.lights)
+      if (l.shadow) {
+        l.shadow->resolution = 64;
+        l.shadow->filter = ShadowFilter::Evsm;
+      }
+    const Scene evsm = Scene::load(std::move(evsmDesc));
+    for (int step = 0; step < 3; ++step) {
       if (step == 1) {
         CameraDesc camera = *scene.desc().camera;
         camera.position += glm::vec3(3.0f, 0.0f, 1.5f);
         camera.target += glm::vec3(3.0f, 0.0f, 1.5f);
         scene.setCamera(camera);
       }
-      const RenderedFrame& frame = renderer.render(scene, smallFrame());
+      const RenderedFrame& frame = renderer.render(step == 2 ? evsm : scene, smallFrame());
       const VulkanShadows shadows = renderer.vulkanShadows();
       EXPECT_EQ(shadows.lightCount, 3u);
       EXPECT_EQ(shadows.viewCount, std::uint32_t(frame.views.size()));
