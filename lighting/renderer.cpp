@@ -316,6 +316,10 @@ struct FrameRenderer::State {
   std::vector<std::pair<std::size_t, std::size_t>> pendingTexels;
   // The Vulkan pass's store holds the layers and storeTexels may be stale (traced on the device in place).
   bool storeOnDevice = false;
+  // Vulkan: whether frame.color (shadowTerms) holds the whole image of the kept frame, as the pass's buffers
+  // do; false after a frame that did not read it back.
+  bool colorHeld = false;
+  bool termsHeld = false;
 };
 
 FrameRenderer::FrameRenderer(Tracer& tracer)
@@ -774,8 +778,16 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   // lookups read a traced texel.
   t0 = Clock::now();
   const gpu::ShadePush push = makeShadePush(desc, camera.width, camera.height, shadeMode(options.debug), raytraced);
+  // On Vulkan the pass's buffers hold the kept image whether or not the host has a copy (the pass itself shades
+  // whole when they hold none of this frame's size).
   const bool shadeAll = allPixels || anyWhole || shadingChanged || lightIds != s.lightIds ||
-                        frame.color.size() != pixelCount || std::memcmp(&push, &s.push, sizeof push) != 0;
+                        (!vulkan && frame.color.size() != pixelCount) || std::memcmp(&push, &s.push, sizeof push) != 0;
+  // What a Vulkan frame copies back (RenderOptions): the layer and moment views draw the colour on the host.
+  const bool readColor = options.readColor || layerView;
+  const bool readTerms = options.readShadowTerms;
+  const bool colorHeld = s.colorHeld && frame.color.size() == pixelCount;
+  const bool termsHeld = s.termsHeld && frame.shadowTerms.size() == pixelCount * lightCount;
+  bool shadedWhole = false;  // the pass shaded and read back whole (shade())
   // The pixels whose G-buffer texel or visibility answers this frame changed (marked so far), before those
   // marked only because a shadow lookup reads a traced texel: the Vulkan pass writes only their inputs.
   std::vector<std::uint32_t> inputPixels;
@@ -830,7 +842,8 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
       // light); it reads back those pixels.
       if (!lightingHeld || !sameLayout) {
         const MomentWork whole = inputs.momentTexels > 0 ? wholeMoments() : MomentWork{};
-        shaded = s.lighting->shade(inputs, push, frame.gbuffer, visible, &traffic, &whole);
+        shaded = s.lighting->shade(inputs, push, frame.gbuffer, visible, &traffic, &whole, readColor, readTerms);
+        shadedWhole = true;
       } else {
         s.pendingTexels.insert(s.pendingTexels.end(), tracedTexels.begin(), tracedTexels.end());
         ShadeChanges changes;
@@ -841,6 +854,9 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
         changes.storeInPlace = deviceStore;
         changes.moments = &momentJobs;
         changes.wholeMoments = wholeMoments;
+        // Changed pixels are copied into a host copy that holds the rest; without one, read whole below.
+        changes.readColor = readColor && colorHeld;
+        changes.readTerms = readTerms && termsHeld;
         s.lighting->shadeChanged(inputs, push, frame.gbuffer, visible, changes, shaded, &traffic);
       }
       s.pendingTexels.clear();
@@ -867,6 +883,25 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
     shadeOnCpu(inputs, push, frame.gbuffer, visible, pixels, shaded);
     stats.pixelsShaded = pixels.size();
     stats.dispatches += 1;
+  }
+  if (vulkan) {
+    // Copied back only where asked; asked after frames that were not, whole (the pass's buffers hold it).
+    const bool colorCurrent = shadedWhole || colorHeld;
+    const bool termsCurrent = shadedWhole || termsHeld;
+    if ((readColor && !colorCurrent) || (readTerms && !termsCurrent)) {
+      if (!s.lighting) throwRuntime("FrameRenderer::render: no lighting pass holds the frame's image to read back");
+      LightingTraffic whole;
+      s.lighting->readResults(readColor && !colorCurrent ? &shaded.color : nullptr,
+                              readTerms && !termsCurrent ? &shaded.shadowTerms : nullptr, &whole);
+      stats.bytesReadBack += whole.readBack;
+    }
+    if (!readColor) shaded.color.clear();
+    if (!readTerms) shaded.shadowTerms.clear();
+    if (shaded.color.size() != (readColor ? pixelCount : 0) ||
+        shaded.shadowTerms.size() != (readTerms ? pixelCount * lightCount : 0))
+      throwRuntime("FrameRenderer::render: the lighting pass's results are not of this frame's size");
+    s.colorHeld = readColor;
+    s.termsHeld = readTerms;
   }
   frame.color.swap(shaded.color);
   frame.shadowTerms.swap(shaded.shadowTerms);

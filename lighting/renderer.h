@@ -28,6 +28,13 @@ struct RenderOptions {
   ShadowSource shadows = ShadowSource::Maps;
   DebugView debug = DebugView::None;
   int debugLayer = 0;  // DebugView::Layer, Moments: which shadow layer (light view order)
+  // What a frame on the Vulkan backend copies to the host: RenderedFrame::color and ::shadowTerms. A host that
+  // shades with the device's shadows (FrameRenderer::vulkanShadows) asks for neither, and its frames read no
+  // pixel of them back (they are left empty); a later frame that asks gets them whole. The CPU backend makes
+  // them on the host and always fills them. The layer and moment debug views draw the colour on the host and
+  // read it back whatever readColor says. Neither changes what is traced or shaded.
+  bool readColor = true;
+  bool readShadowTerms = true;
 };
 
 // Refuses (vs::Error(BadInput), "RenderOptions.<field>: <problem>") what render() cannot draw: a width or
@@ -76,9 +83,9 @@ struct FrameStats {
 
 struct RenderedFrame {
   int width = 0, height = 0;
-  std::vector<glm::vec4> color;    // linear HDR, row 0 at the top
+  std::vector<glm::vec4> color;    // linear HDR, row 0 at the top (empty: not read back, RenderOptions)
   GBuffer gbuffer;
-  std::vector<float> shadowTerms;  // per pixel and light
+  std::vector<float> shadowTerms;  // per pixel and light (empty: not read back, RenderOptions)
   std::vector<std::string> lightNames;
   std::vector<LightView> views;    // the frame's shadow views (none with ray-traced shadows)
   // How many of `views` had texels traced for this frame (stats.layers says how many texels).

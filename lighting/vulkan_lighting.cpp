@@ -276,11 +276,10 @@ struct VulkanLighting::Impl {
 
   ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                     std::span<const std::uint32_t> rayVisibility, LightingTraffic& traffic, bool storeInPlace,
-                    const MomentWork* moments) {
+                    const MomentWork* moments, bool readColor, bool readTerms) {
     std::vector<std::uint32_t> clear;
     rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
     const std::size_t pixels = gbuffer.texels.size();
-    const std::size_t lights = inputs.lights.size();
     if (storeInPlace && !holdsStore(inputs.shadowTexels.size()))
       throwRuntime("lighting: the layer store was to be read in place, but the pass holds no store of " +
                    std::to_string(inputs.shadowTexels.size()) + " texels");
@@ -300,17 +299,28 @@ struct VulkanLighting::Impl {
     writeMomentWork(moments, traffic);
     chooseVariant(inputs, push);
     dispatch(push);
-    ShadeOutput out;
-    out.color.resize(pixels);
-    out.shadowTerms.resize(pixels * lights);
-    std::memcpy(out.color.data(), buffers[gpu::VS_LIGHTING_BINDING_COLOR].mapped, pixels * sizeof(glm::vec4));
-    if (!out.shadowTerms.empty())
-      std::memcpy(out.shadowTerms.data(), buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TERMS].mapped,
-                  out.shadowTerms.size() * sizeof(float));
-    traffic.readBack += pixels * sizeof(glm::vec4) + out.shadowTerms.size() * sizeof(float);
     // Visibility answers made up here (`clear`) are as good as given ones: the next frame has the same.
     heldSizes = sizesOf(inputs, pixels, rayVisibility.size());
+    ShadeOutput out;
+    readResults(readColor ? &out.color : nullptr, readTerms ? &out.shadowTerms : nullptr, traffic);
     return out;
+  }
+
+  // The held frame's whole colour and terms into those given.
+  void readResults(std::vector<glm::vec4>* color, std::vector<float>* terms, LightingTraffic& traffic) const {
+    if (heldSizes.size() != 6) throwRuntime("lighting: the pass holds no whole frame to read back");
+    const std::size_t pixels = heldSizes[0], lights = heldSizes[1];
+    if (color) {
+      color->resize(pixels);
+      std::memcpy(color->data(), buffers[gpu::VS_LIGHTING_BINDING_COLOR].mapped, pixels * sizeof(glm::vec4));
+      traffic.readBack += pixels * sizeof(glm::vec4);
+    }
+    if (terms) {
+      terms->resize(pixels * lights);
+      if (!terms->empty())
+        std::memcpy(terms->data(), buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TERMS].mapped, terms->size() * sizeof(float));
+      traffic.readBack += terms->size() * sizeof(float);
+    }
   }
 
   void shadeChanged(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
@@ -323,13 +333,17 @@ struct VulkanLighting::Impl {
     const std::vector<std::size_t> sizes = sizesOf(inputs, pixels, rayVisibility.size());
     if (changes.storeInPlace && !changes.texelRanges.empty())
       throwBadInput("lighting: texel ranges given for a store read in place");
-    if (sizes != heldSizes || out.color.size() != pixels || out.shadowTerms.size() != pixels * lights) {
-      MomentWork whole;
+    if (sizes != heldSizes || (changes.readColor && out.color.size() != pixels) ||
+        (changes.readTerms && out.shadowTerms.size() != pixels * lights)) {
+      MomentWork wholeWork;
       if (inputs.momentTexels > 0) {
         if (!changes.wholeMoments) throwBadInput("lighting: a frame with EVSM layers needs its whole moment work");
-        whole = changes.wholeMoments();
+        wholeWork = changes.wholeMoments();
       }
-      out = shade(inputs, push, gbuffer, rayVisibility, traffic, changes.storeInPlace, &whole);
+      ShadeOutput whole = shade(inputs, push, gbuffer, rayVisibility, traffic, changes.storeInPlace, &wholeWork,
+                                changes.readColor, changes.readTerms);
+      if (changes.readColor) out.color.swap(whole.color);
+      if (changes.readTerms) out.shadowTerms.swap(whole.shadowTerms);
       return;
     }
     for (const auto& [first, count] : changes.texelRanges)
@@ -358,12 +372,8 @@ struct VulkanLighting::Impl {
       fill(gpu::VS_LIGHTING_BINDING_VISIBILITY, rayVisibility.data(), rayVisibility.size() * sizeof(std::uint32_t));
       traffic.uploaded += pixels * sizeof(gpu::GBufferTexel) + rayVisibility.size() * sizeof(std::uint32_t);
       dispatch(push);
-      std::memcpy(out.color.data(), buffers[gpu::VS_LIGHTING_BINDING_COLOR].mapped, pixels * sizeof(glm::vec4));
-      if (!out.shadowTerms.empty())
-        std::memcpy(out.shadowTerms.data(), buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TERMS].mapped,
-                    out.shadowTerms.size() * sizeof(float));
-      traffic.readBack += pixels * sizeof(glm::vec4) + out.shadowTerms.size() * sizeof(float);
       heldSizes = sizes;
+      readResults(changes.readColor ? &out.color : nullptr, changes.readTerms ? &out.shadowTerms : nullptr, traffic);
       return;
     }
     auto* g = static_cast<gpu::GBufferTexel*>(buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].mapped);
@@ -394,11 +404,15 @@ struct VulkanLighting::Impl {
     }
     const auto* color = static_cast<const glm::vec4*>(buffers[gpu::VS_LIGHTING_BINDING_COLOR].mapped);
     const auto* terms = static_cast<const float*>(buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TERMS].mapped);
-    for (std::uint32_t p : changes.pixels) {
-      out.color[p] = color[p];
-      for (std::size_t l = 0; l < lights; ++l) out.shadowTerms[p * lights + l] = terms[p * lights + l];
+    if (changes.readColor) {
+      for (std::uint32_t p : changes.pixels) out.color[p] = color[p];
+      traffic.readBack += changes.pixels.size() * sizeof(glm::vec4);
     }
-    traffic.readBack += changes.pixels.size() * (sizeof(glm::vec4) + lights * sizeof(float));
+    if (changes.readTerms) {
+      for (std::uint32_t p : changes.pixels)
+        for (std::size_t l = 0; l < lights; ++l) out.shadowTerms[p * lights + l] = terms[p * lights + l];
+      traffic.readBack += changes.pixels.size() * lights * sizeof(float);
+    }
     heldSizes = sizes;
   }
 
@@ -534,6 +548,13 @@ VulkanShadows VulkanLighting::shadows(int width, int height) const {
   return out;
 }
 
+void VulkanLighting::readResults(std::vector<glm::vec4>* color, std::vector<float>* terms,
+                                 LightingTraffic* traffic) const {
+  LightingTraffic t;
+  impl_->readResults(color, terms, t);
+  if (traffic) traffic->readBack += t.readBack;
+}
+
 void VulkanLighting::readStore(std::span<float> out, LightingTraffic* traffic) const {
   if (!impl_->holdsStore(out.size()))
     throwBadInput("lighting: the pass holds no layer store of " + std::to_string(out.size()) + " texels to read");
@@ -553,12 +574,12 @@ int VulkanLighting::variantsCompiled() const {
 VulkanLighting::~VulkanLighting() = default;
 ShadeOutput VulkanLighting::shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                                   std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic,
-                                  const MomentWork* moments) {
+                                  const MomentWork* moments, bool readColor, bool readTerms) {
   LightingTraffic t;
   impl_->shadedPixels = 0;
   impl_->momentTexels = 0;
   impl_->dispatches = 0;
-  ShadeOutput out = impl_->shade(inputs, push, gbuffer, rayVisibility, t, false, moments);
+  ShadeOutput out = impl_->shade(inputs, push, gbuffer, rayVisibility, t, false, moments, readColor, readTerms);
   t.pixelsShaded = impl_->shadedPixels;
   t.momentTexels = impl_->momentTexels;
   t.dispatches = impl_->dispatches;

@@ -42,6 +42,10 @@ struct ShadeChanges {
   // nothing of ShadeInputs::shadowTexels is written, which may then be stale. Precondition: holdsStore() of
   // the frame's store size; texelRanges empty.
   bool storeInPlace = false;
+  // Whether the shaded pixels' colours and terms are copied into `out` (which then holds the last frame's
+  // whole colour, or terms); when false that part of `out` is left as it is.
+  bool readColor = true;
+  bool readTerms = true;
   // EVSM: the moment rectangles the changed texels touch (null: none), computed from the pass's store before it
   // shades; and the whole store's work, for a pass that holds no moments of this frame's size (its first, or
   // after another size): called only then.
@@ -75,9 +79,10 @@ class VulkanLighting {
   // kept for the next frame. `moments`: the whole moment store's work (momentWork over wholeMomentRects), run
   // on the device before the frame is shaded; required when inputs.momentTexels > 0 (inputs.moments is not
   // read). Throws vs::Error(BadInput) as shadeOnCpu does, vs::Error(Runtime) on device errors.
+  // `readColor`, `readTerms`: whether the colours and terms are copied back (else the output's are empty).
   ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                     std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic = nullptr,
-                    const MomentWork* moments = nullptr);
+                    const MomentWork* moments = nullptr, bool readColor = true, bool readTerms = true);
 
   // The pass over a frame whose inputs differ from the last shade()'s or shadeChanged()'s only where `changes`
   // says: the buffers keep the last frame's inputs, so only the changed texel ranges and pixels (their G-buffer
@@ -112,6 +117,10 @@ class VulkanLighting {
   // queue that makes every earlier write visible to later submissions. Precondition: the pass holds a whole
   // frame of `width` x `height` pixels (else vs::Error(Runtime)).
   VulkanShadows shadows(int width, int height) const;
+  // Copies the held frame's whole colour and shadow terms (each left out where its output is null), as
+  // shade() gives them, adding the bytes to traffic->readBack. Precondition: the pass holds a whole frame
+  // (else vs::Error(Runtime)).
+  void readResults(std::vector<glm::vec4>* color, std::vector<float>* terms, LightingTraffic* traffic = nullptr) const;
   // Copies the moment store (ShadeInputs::moments' layout) to `out`, as long as the held one (else
   // vs::Error(BadInput)).
   void readMoments(std::span<glm::vec4> out, LightingTraffic* traffic = nullptr) const;

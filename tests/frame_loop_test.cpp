@@ -20,6 +20,7 @@
 #include "compute/vulkan/vulkan_tracer.h"
 #include "lighting/renderer.h"
 #include "lighting/scene.h"
+#include "support/demo_frames.h"
 #include "support/test_paths.h"
 #include "voxel/demo_world.h"
 #include "voxel/error.h"
@@ -289,11 +290,21 @@ int playAndCompare(const std::string& backend, unsigned seed, int frames, double
   int differing = 0;
   std::uint64_t traced = 0, all = 0;
   double keptMs = 0.0, freshMs = 0.0;
-  RenderOptions raytraced = options, layerView = options;
+  RenderOptions raytraced = options, layerView = options, quiet = options;
   raytraced.shadows = ShadowSource::Raytraced;
   layerView.debug = DebugView::Layer;
+  quiet.readColor = quiet.readShadowTerms = false;
   for (int f = 0; f < frames; ++f) {
     game.step();
+    // Now and then a frame that reads nothing back (a host that shades with the device's shadows), then
+    // another change: the next frame, which asks, must still give the whole image.
+    if (f % 9 == 4) {
+      const RenderedFrame& unread = renderer.render(game.scene, quiet);
+      if (backend == "vulkan") {
+        EXPECT_TRUE(unread.color.empty() && unread.shadowTerms.empty()) << "frame " << f;
+      }
+      game.step();
+    }
     // Now and then a frame of another kind in between (one without shadow maps, one that shows a layer): the
     // layers kept across it, which Vulkan keeps on the device, must still equal a new renderer's after it.
     if (f % 50 == 25) renderer.render(game.scene, raytraced);
@@ -352,6 +363,51 @@ TEST(FrameLoop, RandomFramesKeepEvsmMomentsOnVulkan) {
 // The same comparison notices an invalidation one texel too small on every side.
 TEST(FrameLoop, AnInvalidationOneTexelTooSmallIsCaught) {
   EXPECT_GT(playAndCompare("cpu", 7, 500, 0.0 - 1.0, true), 0);
+}
+
+// On Vulkan a frame that asks for no image reads none of it back: a pan reads back exactly the colour and terms
+// fewer than the same pan that asks; a still frame that asks after it reads the whole image, which equals the
+// other renderer's. The CPU backend fills both whatever is asked.
+TEST(FrameLoop, AFrameThatAsksForNoImageReadsNoneBack) {
+  Game game("frame_loop_readback", 3);
+  std::unique_ptr<Tracer> tracer = makeTracer("vulkan");
+  FrameRenderer asking(*tracer), quiet(*tracer);
+  const RenderOptions options = smallFrame();
+  RenderOptions none = options;
+  none.readColor = none.readShadowTerms = false;
+  const double texel = asking.render(game.scene, options).views.at(0).texelWorld;
+  EXPECT_TRUE(quiet.render(game.scene, none).color.empty());
+  game.moveCamera(glm::dvec3(texel * 2.0, 0.0, texel));
+  const RenderedFrame a = asking.render(game.scene, options);
+  const RenderedFrame& b = quiet.render(game.scene, none);
+  const std::uint64_t pixels = std::uint64_t(a.width) * std::uint64_t(a.height);
+  const std::uint64_t image = pixels * sizeof(glm::vec4) + a.shadowTerms.size() * sizeof(float);
+  ASSERT_EQ(a.color.size(), pixels);
+  EXPECT_TRUE(b.color.empty());
+  EXPECT_TRUE(b.shadowTerms.empty());
+  EXPECT_EQ(b.stats.pixelsShaded, a.stats.pixelsShaded);
+  EXPECT_EQ(b.stats.bytesReadBack + image, a.stats.bytesReadBack);
+  // Nothing changed since: the asking renderer reads nothing back, the other one the whole image.
+  EXPECT_EQ(asking.render(game.scene, options).stats.bytesReadBack, 0u);
+  const RenderedFrame& c = quiet.render(game.scene, options);
+  EXPECT_EQ(c.stats.bytesReadBack, image);
+  EXPECT_EQ(c.stats.pixelsShaded, 0u);
+  EXPECT_TRUE(test::sameBytes(c.color, a.color));
+  EXPECT_TRUE(test::sameBytes(c.shadowTerms, a.shadowTerms));
+  // Colour alone.
+  RenderOptions colourOnly = options;
+  colourOnly.readShadowTerms = false;
+  const RenderedFrame& d = quiet.render(game.scene, colourOnly);
+  EXPECT_TRUE(test::sameBytes(d.color, a.color));
+  EXPECT_TRUE(d.shadowTerms.empty());
+  EXPECT_EQ(d.stats.bytesReadBack, 0u);
+  // The CPU backend's frames have both.
+  std::unique_ptr<Tracer> cpu = makeTracer("cpu");
+  FrameRenderer host(*cpu);
+  const RenderedFrame& e = host.render(game.scene, none);
+  EXPECT_EQ(e.color.size(), pixels);
+  EXPECT_EQ(e.shadowTerms.size(), a.shadowTerms.size());
+  test::expectNoValidationMessages(*tracer);
 }
 
 // A window's exposed strips, and no more, for a pan of k whole texels along x and y.
