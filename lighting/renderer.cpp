@@ -42,6 +42,9 @@ bool sameCamera(const CameraFrame& a, const CameraFrame& b) {
          a.farPlane == b.farPlane && a.width == b.width && a.height == b.height;
 }
 
+// The debug views that draw a shadow layer (or its moments) on the host instead of the lit image.
+bool drawsALayer(const RenderOptions& o) { return o.debug == DebugView::Layer || o.debug == DebugView::Moments; }
+
 bool sameOptions(const RenderOptions& a, const RenderOptions& b) {
   return a.width == b.width && a.height == b.height && a.shadows == b.shadows && a.debug == b.debug &&
          a.debugLayer == b.debugLayer;
@@ -250,7 +253,7 @@ void checkRenderOptions(const RenderOptions& options) {
       throwBadInput("RenderOptions.debug: " + std::to_string(int(options.debug)) +
                     " is no DebugView (None, Cascades, Shadow, Normals, Layer or Moments)");
   }
-  if ((options.debug == DebugView::Layer || options.debug == DebugView::Moments) && options.debugLayer < 0)
+  if (drawsALayer(options) && options.debugLayer < 0)
     throwBadInput("RenderOptions.debugLayer: must be 0 or more, not " + std::to_string(options.debugLayer));
 }
 
@@ -316,10 +319,6 @@ struct FrameRenderer::State {
   std::vector<std::pair<std::size_t, std::size_t>> pendingTexels;
   // The Vulkan pass's store holds the layers and storeTexels may be stale (traced on the device in place).
   bool storeOnDevice = false;
-  // Vulkan: whether frame.color (shadowTerms) holds the whole image of the kept frame, as the pass's buffers
-  // do; false after a frame that did not read it back.
-  bool colorHeld = false;
-  bool termsHeld = false;
 };
 
 FrameRenderer::FrameRenderer(Tracer& tracer)
@@ -401,7 +400,7 @@ VulkanShadows FrameRenderer::vulkanShadows() const {
                   "layers are on the host: layers())");
   Tracer::Exclusive hold(tracer_);
   State& s = *state_;
-  const bool layerView = s.options.debug == DebugView::Layer || s.options.debug == DebugView::Moments;
+  const bool layerView = drawsALayer(s.options);
   if (!s.valid || !s.lighting || s.options.shadows != ShadowSource::Maps || layerView)
     throwRuntime("FrameRenderer::vulkanShadows: the last frame left no shadow maps on the device (render a "
                  "frame with shadow maps first; ray-traced shadows and the layer and moment views have none)");
@@ -439,7 +438,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   if (!desc.camera) throwBadInput(desc.file.string() + ": camera: a scene needs a camera to be rendered");
   const CameraFrame camera = cameraFrame(*desc.camera, options.width, options.height);
   const bool raytraced = options.shadows == ShadowSource::Raytraced;
-  const bool layerView = options.debug == DebugView::Layer || options.debug == DebugView::Moments;
+  const bool layerView = drawsALayer(options);
   const bool needMaps = !raytraced || layerView;
   State& s = *state_;
   VulkanTracer* vulkan = tracer_.vulkan();
@@ -785,8 +784,10 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   // What a Vulkan frame copies back (RenderOptions): the layer and moment views draw the colour on the host.
   const bool readColor = options.readColor || layerView;
   const bool readTerms = options.readShadowTerms;
-  const bool colorHeld = s.colorHeld && frame.color.size() == pixelCount;
-  const bool termsHeld = s.termsHeld && frame.shadowTerms.size() == pixelCount * lightCount;
+  // Whether the host's copies hold the kept image whole (a Vulkan frame that did not read one back left it
+  // empty; one of another size is redone whole).
+  const bool colorHeld = frame.color.size() == pixelCount;
+  const bool termsHeld = frame.shadowTerms.size() == pixelCount * lightCount;
   bool shadedWhole = false;  // the pass shaded and read back whole (shade())
   // The pixels whose G-buffer texel or visibility answers this frame changed (marked so far), before those
   // marked only because a shadow lookup reads a traced texel: the Vulkan pass writes only their inputs.
@@ -900,8 +901,6 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
     if (shaded.color.size() != (readColor ? pixelCount : 0) ||
         shaded.shadowTerms.size() != (readTerms ? pixelCount * lightCount : 0))
       throwRuntime("FrameRenderer::render: the lighting pass's results are not of this frame's size");
-    s.colorHeld = readColor;
-    s.termsHeld = readTerms;
   }
   frame.color.swap(shaded.color);
   frame.shadowTerms.swap(shaded.shadowTerms);

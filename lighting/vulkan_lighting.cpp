@@ -306,6 +306,22 @@ struct VulkanLighting::Impl {
     return out;
   }
 
+  static void checkTexelRanges(std::span<const std::pair<std::size_t, std::size_t>> ranges, std::size_t texels) {
+    for (const auto& [first, count] : ranges)
+      if (first > texels || count > texels - first)
+        throwBadInput("lighting: texel range [" + std::to_string(first) + ", +" + std::to_string(count) +
+                      ") lies outside the layer store of " + std::to_string(texels));
+  }
+  // Ranges [first, first + count) of `store` into the layer store's buffer, which holds as many texels.
+  void writeTexelRanges(std::span<const float> store, std::span<const std::pair<std::size_t, std::size_t>> ranges,
+                        LightingTraffic& traffic) {
+    auto* texels = static_cast<float*>(buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].mapped);
+    for (const auto& [first, count] : ranges) {
+      std::memcpy(texels + first, store.data() + first, count * sizeof(float));
+      traffic.uploaded += count * sizeof(float);
+    }
+  }
+
   // The held frame's whole colour and terms into those given.
   void readResults(std::vector<glm::vec4>* color, std::vector<float>* terms, LightingTraffic& traffic) const {
     if (heldSizes.size() != 6) throwRuntime("lighting: the pass holds no whole frame to read back");
@@ -346,9 +362,7 @@ struct VulkanLighting::Impl {
       if (changes.readTerms) out.shadowTerms.swap(whole.shadowTerms);
       return;
     }
-    for (const auto& [first, count] : changes.texelRanges)
-      if (first > inputs.shadowTexels.size() || count > inputs.shadowTexels.size() - first)
-        throwBadInput("lighting: a changed texel range lies outside the layer store");
+    checkTexelRanges(changes.texelRanges, inputs.shadowTexels.size());
     if (!changes.allPixels) {
       for (std::uint32_t p : changes.pixels)
         if (p >= pixels) throwBadInput("lighting: changed pixel " + std::to_string(p) + " outside the frame");
@@ -362,11 +376,7 @@ struct VulkanLighting::Impl {
     writeRecords(inputs, traffic);
     writeMomentWork(changes.moments, traffic);
     chooseVariant(inputs, push);
-    auto* texels = static_cast<float*>(buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].mapped);
-    for (const auto& [first, count] : changes.texelRanges) {
-      std::memcpy(texels + first, inputs.shadowTexels.data() + first, count * sizeof(float));
-      traffic.uploaded += count * sizeof(float);
-    }
+    writeTexelRanges(inputs.shadowTexels, changes.texelRanges, traffic);
     if (changes.allPixels) {
       fill(gpu::VS_LIGHTING_BINDING_GBUFFER, gbuffer.texels.data(), pixels * sizeof(gpu::GBufferTexel));
       fill(gpu::VS_LIGHTING_BINDING_VISIBILITY, rayVisibility.data(), rayVisibility.size() * sizeof(std::uint32_t));
@@ -507,15 +517,10 @@ void VulkanLighting::writeStore(std::span<const float> store,
                                 std::span<const std::pair<std::size_t, std::size_t>> ranges, LightingTraffic* traffic) {
   if (!impl_->holdsStore(store.size()))
     throwBadInput("lighting: the pass holds no layer store of " + std::to_string(store.size()) + " texels to write");
-  for (const auto& [first, count] : ranges)
-    if (first > store.size() || count > store.size() - first)
-      throwBadInput("lighting: texel range [" + std::to_string(first) + ", +" + std::to_string(count) +
-                    ") outside the store of " + std::to_string(store.size()));
-  auto* texels = static_cast<float*>(impl_->buffers[gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS].mapped);
-  for (const auto& [first, count] : ranges) {
-    std::memcpy(texels + first, store.data() + first, count * sizeof(float));
-    if (traffic) traffic->uploaded += count * sizeof(float);
-  }
+  Impl::checkTexelRanges(ranges, store.size());
+  LightingTraffic t;
+  impl_->writeTexelRanges(store, ranges, t);
+  if (traffic) traffic->uploaded += t.uploaded;
 }
 
 VulkanShadows VulkanLighting::shadows(int width, int height) const {

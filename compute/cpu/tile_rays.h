@@ -39,17 +39,22 @@ struct RayState {
   gpu::SceneArrays::ObjectWalk walk;
 };
 
-// Starts a ray's state: no hit yet, no candidates.
-inline void beginRay(gpu::SceneArrays& arrays, RayState& r, const WorldRay& ray) {
-  r.ray = ray;
-  r.cullOrigin = arrays.vsCullOrigin(ray);
-  r.cullPad = arrays.vsCullPad(ray);
-  r.tBest = ray.tMax;
+// A ray's search state for r.ray: no hit yet, no candidates.
+inline void resetRay(RayState& r) {
+  r.tBest = r.ray.tMax;
   r.hit = false;
   r.instanceHit = 0u;
   r.voxel = glm::ivec3(0);
   r.candidateCount = 0;
   r.nextCandidate = 0;
+}
+
+// Starts a ray's state: its culling origin and pad, no hit yet, no candidates.
+inline void beginRay(gpu::SceneArrays& arrays, RayState& r, const WorldRay& ray) {
+  r.ray = ray;
+  r.cullOrigin = arrays.vsCullOrigin(ray);
+  r.cullPad = arrays.vsCullPad(ray);
+  resetRay(r);
 }
 
 // The order in which a ray visits its candidates: nearest entry first, ties by instance index.

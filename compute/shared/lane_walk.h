@@ -175,12 +175,12 @@ struct WorldRay {
   LFloat tMax;
 };
 
-// Whether every component of a ray is finite. Comparisons, not isnan/isinf, so that GLSL and C++ read it
-// alike: a NaN fails every comparison. A non-finite ray (a degenerate view matrix) is a miss, so that no
-// tracer turns it into a voxel coordinate.
 // |v| by component (GLM's vector abs stays an out-of-line call in the large CPU drivers).
 VS_ALWAYS_INLINE LVec3 vsAbs3(LVec3 v) { return LVec3(abs(v.x), abs(v.y), abs(v.z)); }
 
+// Whether every component of a ray is finite. Comparisons, not isnan/isinf, so that GLSL and C++ read it
+// alike: a NaN fails every comparison. A non-finite ray (a degenerate view matrix) is a miss, so that no
+// tracer turns it into a voxel coordinate.
 VS_ALWAYS_INLINE LBool vsIsFinite3(LVec3 v) {
   LVec3 a = vsAbs3(v);
   return a.x <= VS_T_INFINITY && a.y <= VS_T_INFINITY && a.z <= VS_T_INFINITY;
