@@ -23,6 +23,10 @@ struct CpuShading {
   const vec4* momentTexels = nullptr;
   vec4 vsLoadMoments(int i) const { return momentTexels[i]; }
   ShadeView vsLoadView(int i) const { return shadeViews[i]; }
+  bool vsViewHoldsDepth(int i, float viewDepth) const {
+    const ShadeView& v = shadeViews[i];
+    return v.info.w < 0 || (viewDepth >= v.split.x && viewDepth < v.split.y);
+  }
 #include "lighting/shared/shading.h"
 };
 

@@ -60,6 +60,11 @@ struct ShadeOutput {
 ShadeOutput shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                        std::span<const std::uint32_t> rayVisibility);
 
+// The same into `out`, resized to the frame: a frame loop hands last frame's buffers back, so that a frame
+// touches no new page.
+void shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
+                std::span<const std::uint32_t> rayVisibility, ShadeOutput& out);
+
 // The same for the given pixels only (row-major indices, each at most once): their colours and shadow terms in
 // `out`, sized for the frame (else vs::Error(BadInput)), are replaced; the others are left as they are.
 void shadeOnCpu(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,

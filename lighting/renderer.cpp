@@ -877,7 +877,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
       if (!s.lightingHeld) s.pendingTexels.clear();
     }
   } else if (shadeAll) {
-    shaded = shadeOnCpu(inputs, push, frame.gbuffer, visible);
+    shadeOnCpu(inputs, push, frame.gbuffer, visible, shaded);
     stats.pixelsShaded = pixelCount;
     stats.dispatches += 1;
   } else if (!pixels.empty()) {

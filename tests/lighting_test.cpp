@@ -286,6 +286,44 @@ TEST(LightingTruth, DemoSceneAgreesWithRayTracedShadows) {
   }
 }
 
+// A light's culling volume: a receiver that faces a spot or point light but lies beyond its range or outside
+// its cone gets no light from it, and its shadow term is 1 (no layer read, no ray's answer used), in both
+// shadow sources; the demo's torch (range 25) faces most of the frame from outside its range.
+TEST(LightingTruth, ALightThatDoesNotReachAReceiverLeavesItLit) {
+  const fs::path dir = test::scratchDir("unreached");
+  const std::vector<std::string> written = writeDemoWorld(dir);
+  auto tracer = cpuTracer();
+  const Scene scene = Scene::load(written.back());
+  tracer->setScene(scene.data());
+  for (ShadowSource source : {ShadowSource::Maps, ShadowSource::Raytraced}) {
+    const RenderedFrame frame = renderWith(scene, *tracer, source, 320, 180);
+    const std::size_t lights = frame.lightNames.size();
+    for (std::size_t l = 0; l < lights; ++l) {
+      const LightDesc& light = scene.desc().lights[l];
+      if (light.type == LightType::Directional) continue;
+      int unreached = 0, notLit = 0;
+      for (std::size_t i = 0; i < frame.gbuffer.texels.size(); ++i) {
+        const gpu::GBufferTexel& g = frame.gbuffer.texels[i];
+        if (g.info.w == 0u) continue;
+        const glm::dvec3 p(glm::vec3(g.position));
+        const glm::dvec3 toLight = glm::normalize(glm::dvec3(light.position) - p);
+        if (!(glm::dot(glm::dvec3(glm::vec3(g.normal)), toLight) > 0.0)) continue;
+        // Clear of the boundaries by a margin that float rounding cannot cross.
+        const bool beyond = glm::length(glm::dvec3(light.position) - p) > double(light.range) * 1.001;
+        const bool outside = light.type == LightType::Spot &&
+                             glm::dot(-toLight, glm::dvec3(light.direction)) <
+                                 std::cos(glm::radians(double(light.outerConeDeg))) - 1e-3;
+        if (!beyond && !outside) continue;
+        ++unreached;
+        notLit += frame.shadowTerms[i * lights + l] != 1.0f;
+      }
+      EXPECT_GT(unreached, 1000) << light.name;
+      EXPECT_EQ(notLit, 0) << light.name << (source == ShadowSource::Maps ? ", maps" : ", ray-traced") << ": of "
+                           << unreached << " receivers the light does not reach";
+    }
+  }
+}
+
 namespace {
 
 struct FalseShadows {

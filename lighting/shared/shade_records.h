@@ -3,6 +3,7 @@
 //   usamplerBuffer shadeViewTexels: the ShadeView records, VS_SHADE_VIEW_TEXELS RGBA32UI texels each (a
 //     uniform texel buffer: llvmpipe reads a storage buffer one lane at a time);
 //   vec2 momentPositive[], momentNegative[]: the EVSM moment store's two halves (lighting_interface.h).
+// and gives shadow_lookup.h what it reads: vsLoadMoments, vsLoadView, vsViewHoldsDepth.
 #ifndef VOXSHADOW_SHADE_RECORDS_H
 #define VOXSHADOW_SHADE_RECORDS_H
 
@@ -21,6 +22,13 @@ ShadeView vsLoadView(int i) {
   v.info = ivec4(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + VS_SHADE_VIEW_TEXEL_INFO));
   v.trace = ivec4(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + VS_SHADE_VIEW_TEXEL_TRACE));
   return v;
+}
+// Whether view i holds a receiver at camera view depth `viewDepth` by its cascade range (ShadeView.split, for
+// cascades; other views hold every depth): two texels of the record instead of all of them.
+bool vsViewHoldsDepth(int i, float viewDepth) {
+  vec4 split = vsViewTexel(i, VS_SHADE_VIEW_TEXEL_SPLIT);
+  int cascade = int(texelFetch(shadeViewTexels, i * VS_SHADE_VIEW_TEXELS + VS_SHADE_VIEW_TEXEL_INFO).w);
+  return cascade < 0 || (viewDepth >= split.x && viewDepth < split.y);
 }
 
 #endif

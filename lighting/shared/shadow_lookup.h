@@ -6,6 +6,9 @@
 // The includer provides, as arrays or buffer members of these names:
 //   shadowTexels[i] (float): every shadow layer, row by row, one after another (ShadeView.info.x)
 //   vsLoadView(i) (a function, ShadeView): shadow view i's record
+//   vsViewHoldsDepth(i, viewDepth) (a function, bool): view i is no cascade (info.w < 0), or its split range
+//     [split.x, split.y) holds viewDepth; read without the rest of the record, which the cascade choice then
+//     loads for one view only (a shader reads a record as 13 texels)
 //   vsLoadMoments(i) (a function, vec4): texel i of the EVSM moment store (lighting/shared/evsm_pass.h),
 //     ShadeView.trace.w
 // and includes lighting/shared/shading_layout.h and lighting/shared/evsm.h first. C++ includes this inside a
@@ -309,7 +312,7 @@ float vsViewFilter(VS_IN(ShadeLight) light, VS_IN(ShadeView) view, vec3 p, vec3 
 // The shadow-map term of a light at a receiver (1 lit, 0 shadowed). Cascades: the first whose depth range
 // holds the pixel's view depth and whose layer holds the kernel; in the blend band at its far end it mixes
 // with the next one, and the last one fades to lit. A receiver outside every view is lit.
-// The view is chosen before any filter runs, and each view record is read once per receiver (a record is 208
+// The view is chosen before any filter runs, and only the chosen view's whole record is read (a record is 208
 // bytes).
 float vsShadowMapTerm(VS_IN(ShadeLight) light, vec3 p, vec3 n, vec3 toLight, float nDotL, float lightDistance,
                       float viewDepth) {
@@ -329,8 +332,8 @@ float vsShadowMapTerm(VS_IN(ShadeLight) light, vec3 p, vec3 n, vec3 toLight, flo
   int chosen = -1;
   ShadeView view;
   for (int c = 0; c < count; ++c) {
+    if (!vsViewHoldsDepth(first + c, viewDepth)) continue;
     view = vsLoadView(first + c);
-    if (view.info.w >= 0 && !(viewDepth >= view.split.x && viewDepth < view.split.y)) continue;
     if (!vsViewReceiver(light, view, p, n, toLight, nDotL, lightDistance, true, r, texel)) continue;
     chosen = c;
     break;
@@ -355,8 +358,9 @@ float vsShadowMapTerm(VS_IN(ShadeLight) light, vec3 p, vec3 n, vec3 toLight, flo
 // Which cascade of the light the receiver's shadow comes from (-1: none), for the cascade debug view.
 int vsCascadeOf(VS_IN(ShadeLight) light, vec3 p, float viewDepth) {
   for (int c = 0; c < light.info.w; ++c) {
+    if (!vsViewHoldsDepth(light.info.z + c, viewDepth)) continue;
     ShadeView view = vsLoadView(light.info.z + c);
-    if (view.info.w < 0 || !(viewDepth >= view.split.x && viewDepth < view.split.y)) continue;
+    if (view.info.w < 0) continue;
     vec2 texel;
     float depth;
     if (vsProjectToView(view, p, texel, depth) && vsInsideView(view, texel, depth, vsFilterReach(light.info.y)))
@@ -392,15 +396,20 @@ float vsLightGeometry(VS_IN(ShadeLight) light, vec3 p, VS_OUT(vec3) toLight, VS_
 
 // The shadow term of light `l` at G-buffer texel g (1 lit, 0 shadowed): the shadow maps, times the contact
 // ray where the light has one, or the exact ray alone (raytraced). `visibility`: rayVisibility's answer for
-// this pixel and light. Surfaces facing away from the light are in their own shadow (0).
+// this pixel and light. Surfaces facing away from the light are in their own shadow (0). A receiver the light
+// does not reach (zero attenuation: beyond its range, outside its cone) has nothing to shadow: 1, with no layer
+// read and no ray's answer used. That is what a light's culling volume gives a deferred pass, and the lit
+// colour is the same either way (the light adds nothing there); most of a point light's receivers in a large
+// scene lie beyond its range, where each would cost a filter kernel of unprojected texel rays.
 float vsShadowTerm(VS_IN(ShadeLight) light, VS_IN(GBufferTexel) g, uint visibility, bool raytraced) {
   vec3 p = vec3(g.position);
   vec3 n = vec3(g.normal);
   vec3 toLight;
   float lightDistance;
-  vsLightGeometry(light, p, toLight, lightDistance);
+  float attenuation = vsLightGeometry(light, p, toLight, lightDistance);
   float nDotL = dot(n, toLight);
   if (!(nDotL > 0.0f)) return 0.0f;
+  if (attenuation == 0.0f) return 1.0f;
   if (raytraced) return visibility != 0u ? 1.0f : 0.0f;
   float s = light.info.y == VS_FILTER_NONE ? 1.0f : vsShadowMapTerm(light, p, n, toLight, nDotL, lightDistance, g.position.w);
   if (light.extra.y > 0.0f && visibility == 0u) s = 0.0f;
