@@ -21,9 +21,9 @@ const glm::dvec3 kFaceNormals[6] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}
 
 namespace {
 
-// Per instance: the normal matrix, the voxel's world size and the palette.
+// Per instance: its six faces' unit world normals (VS_FACE_* order), the voxel's world size and the palette.
 struct InstanceFrame {
-  glm::dmat3 normalMatrix;
+  glm::dvec3 faceNormals[6];
   double voxelSize;
   const std::vector<glm::vec3>* palette;
 };
@@ -32,8 +32,12 @@ std::vector<InstanceFrame> instanceFrames(const Scene& scene) {
   std::vector<InstanceFrame> frames;
   for (const SceneInstance& inst : scene.instances()) {
     const glm::dmat3 linear(inst.brickToWorld);
-    frames.push_back({glm::transpose(glm::inverse(linear)), std::cbrt(std::abs(glm::determinant(linear))),
-                      &scene.objects()[inst.object].palette});
+    const glm::dmat3 normalMatrix = glm::transpose(glm::inverse(linear));
+    InstanceFrame f{};
+    for (int face = 0; face < 6; ++face) f.faceNormals[face] = glm::normalize(normalMatrix * kFaceNormals[face]);
+    f.voxelSize = std::cbrt(std::abs(glm::determinant(linear)));
+    f.palette = &scene.objects()[inst.object].palette;
+    frames.push_back(f);
   }
   return frames;
 }
@@ -49,7 +53,7 @@ gpu::GBufferTexel resolveHit(const std::vector<InstanceFrame>& frames, const Cam
   const glm::dvec3 dir(glm::vec3(r.direction));
   const glm::dvec3 p = origin + dir * double(h.t);
   const std::uint32_t face = std::uint32_t(h.voxel.w);
-  glm::dvec3 n = face < 6u ? glm::normalize(f.normalMatrix * kFaceNormals[face]) : -glm::normalize(dir);
+  glm::dvec3 n = face < 6u ? f.faceNormals[face] : -glm::normalize(dir);
   t.position = glm::vec4(glm::vec3(p), float(glm::dot(p - camera.position, camera.forward)));
   t.normal = glm::vec4(glm::vec3(n), float(f.voxelSize));
   const std::vector<glm::vec3>& palette = *f.palette;

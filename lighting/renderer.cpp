@@ -308,6 +308,7 @@ struct FrameRenderer::State {
   std::vector<ShadowLayer> scratch;    // trace pieces, reused
   std::vector<gpu::RayHit> hits;       // primary hits, reused
   std::vector<gpu::VisibilityReceiver> receivers;  // of the visibility rays, reused
+  std::vector<std::uint32_t> answers;               // their answers (receiver by light with rays), reused
   gpu::ShadePush push{};
   Aabb bounds;  // the world's bounds at the kept frame
 
@@ -730,24 +731,48 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   // pixels' and those whose rays meet a changed box.
   t0 = Clock::now();
   const std::size_t lightCount = desc.lights.size();
-  const bool needRays = std::any_of(inputs.rayLength.begin(), inputs.rayLength.end(), [](float l) { return l != 0.0f; });
+  // The lights that have rays (a ray length other than 0): the others' answers are clear without a ray (in the
+  // demo two lights of three, whose empty rays took a third of the stage).
+  std::vector<std::size_t> rayLights;
+  for (std::size_t l = 0; l < lightCount; ++l)
+    if (inputs.rayLength[l] != 0.0f) rayLights.push_back(l);
+  const bool needRays = !rayLights.empty();
   const bool raysChanged = lightIds != s.lightIds || inputs.rayLength != s.rayLength || !changedLights.empty() ||
                            s.visible.size() != pixelCount * lightCount;
   std::vector<std::uint32_t> visible;
   std::size_t receiversTraced = 0;
   if (needRays) {
-    // The rays are made where they are traced, from one receiver per pixel (Tracer::traceVisibility).
-    const VisibilitySetup setup = visibilitySetup(inputs.lights, inputs.rayLength, scene.worldBounds());
+    // The rays are made where they are traced, from one receiver per pixel (Tracer::traceVisibility), toward
+    // the lights that have rays.
+    std::vector<gpu::ShadeLight> tracedLights;
+    std::vector<float> tracedLengths;
+    for (std::size_t l : rayLights) {
+      tracedLights.push_back(inputs.lights[l]);
+      tracedLengths.push_back(inputs.rayLength[l]);
+    }
+    const VisibilitySetup setup = visibilitySetup(tracedLights, tracedLengths, scene.worldBounds());
     std::vector<gpu::VisibilityReceiver>& receivers = s.receivers;
+    std::vector<std::uint32_t>& answers = s.answers;
+    // Receiver k's answers (ray k * traced + j toward light rayLights[j], nonzero where occluded) into `visible`
+    // at its pixel: 1 where clear, and 1 for every light without a ray.
+    auto spreadAnswers = [&](std::span<const std::uint32_t> pixels) {
+      const std::size_t traced = rayLights.size();
+      tbb::parallel_for(std::size_t(0), receivers.size(), [&](std::size_t k) {
+        std::uint32_t* row = visible.data() + std::size_t(pixels.empty() ? k : pixels[k]) * lightCount;
+        std::fill(row, row + lightCount, 1u);
+        for (std::size_t j = 0; j < traced; ++j) row[rayLights[j]] = answers[k * traced + j] == 0u ? 1u : 0u;
+      });
+      stats.visibilityRays = answers.size();
+      receiversTraced = receivers.size();
+    };
     if (allPixels || raysChanged) {
       visibilityReceivers(frame.gbuffer, {}, receivers);
+      answers.resize(receivers.size() * rayLights.size());
+      const TraceStats ts = tracer_.traceVisibility(setup.frame, setup.lights, receivers, answers);
+      stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
       visible.swap(s.visible);
       visible.resize(receivers.size() * lightCount);
-      const TraceStats ts = tracer_.traceVisibility(setup.frame, setup.lights, receivers, visible);
-      stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
-      for (std::uint32_t& v : visible) v = v == 0u ? 1u : 0u;
-      stats.visibilityRays = visible.size();
-      receiversTraced = receivers.size();
+      spreadAnswers({});
       std::fill(marks.begin(), marks.end(), std::uint8_t(1));
     } else {
       visible.swap(s.visible);
@@ -755,19 +780,16 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
       const std::vector<std::uint32_t> pixels = markedPixels(marks);
       if (!pixels.empty()) {
         visibilityReceivers(frame.gbuffer, pixels, receivers);
-        std::vector<std::uint32_t> answers(receivers.size() * lightCount);
+        answers.resize(receivers.size() * rayLights.size());
         const TraceStats ts = tracer_.traceVisibility(setup.frame, setup.lights, receivers, answers);
         stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
-        for (std::size_t k = 0; k < pixels.size(); ++k)
-          for (std::size_t l = 0; l < lightCount; ++l)
-            visible[std::size_t(pixels[k]) * lightCount + l] = answers[k * lightCount + l] == 0u ? 1u : 0u;
-        stats.visibilityRays = answers.size();
-        receiversTraced = receivers.size();
+        spreadAnswers(pixels);
       }
     }
   }
   if (vulkan && receiversTraced > 0) {
-    stats.bytesUploaded += sizeof(gpu::VisibilityRays) + lightCount * sizeof(gpu::VisibilityLight) +
+    stats.bytesUploaded += sizeof(gpu::VisibilityRays) +
+                           rayLights.size() * sizeof(gpu::VisibilityLight) +
                            receiversTraced * sizeof(gpu::VisibilityReceiver);
     stats.bytesReadBack += stats.visibilityRays * sizeof(std::uint32_t);
   }
