@@ -293,6 +293,14 @@ bool vsViewReceiver(VS_IN(ShadeLight) light, VS_IN(ShadeView) view, vec3 p, vec3
   return !lateral || vsInsideView(view, texel, depth, vsFilterReach(light.info.y));
 }
 
+// The first of views first + from .. first + count - 1 that holds camera view depth viewDepth
+// (vsViewHoldsDepth), as an index from `first`; count where none does.
+int vsNextViewHolding(int first, int from, int count, float viewDepth) {
+  int c = from;
+  while (c < count && !vsViewHoldsDepth(first + c, viewDepth)) ++c;
+  return c;
+}
+
 // The filtered shadow-map term of one view at a receiver it covers (vsViewReceiver gave r and texel).
 float vsViewFilter(VS_IN(ShadeLight) light, VS_IN(ShadeView) view, vec3 p, vec3 n, float lightDistance,
                    VsReceiver r, vec2 texel) {
@@ -329,29 +337,40 @@ float vsShadowMapTerm(VS_IN(ShadeLight) light, vec3 p, vec3 n, vec3 toLight, flo
     if (!vsViewReceiver(light, faceView, p, n, toLight, nDotL, lightDistance, false, r, texel)) return 1.0f;
     return vsViewFilter(light, faceView, p, n, lightDistance, r, texel);
   }
-  int chosen = -1;
+  // The first view that holds the depth and whose layer holds the kernel. Cascades' ranges do not overlap, so
+  // one view's whole record is loaded and tried, and a second only where the first refuses the receiver and
+  // another range holds it too.
+  int chosen = vsNextViewHolding(first, 0, count, viewDepth);
   ShadeView view;
-  for (int c = 0; c < count; ++c) {
-    if (!vsViewHoldsDepth(first + c, viewDepth)) continue;
-    view = vsLoadView(first + c);
-    if (!vsViewReceiver(light, view, p, n, toLight, nDotL, lightDistance, true, r, texel)) continue;
-    chosen = c;
-    break;
+  while (chosen < count) {
+    view = vsLoadView(first + chosen);
+    if (vsViewReceiver(light, view, p, n, toLight, nDotL, lightDistance, true, r, texel)) break;
+    chosen = vsNextViewHolding(first, chosen + 1, count, viewDepth);
   }
-  if (chosen < 0) return 1.0f;
-  float s = vsViewFilter(light, view, p, n, lightDistance, r, texel);
-  if (view.info.w < 0) return s;
-  float band = light.extra.z * (view.split.y - view.split.x);
-  if (band > 0.0f && viewDepth > view.split.y - band) {
-    float t = (viewDepth - (view.split.y - band)) / band;
-    float next = 1.0f;
-    if (chosen + 1 < count) {
-      ShadeView nextView = vsLoadView(first + chosen + 1);
-      next = vsViewReceiver(light, nextView, p, n, toLight, nDotL, lightDistance, true, r, texel)
-          ? vsViewFilter(light, nextView, p, n, lightDistance, r, texel) : s;
+  if (chosen >= count) return 1.0f;
+  // The chosen view's filter; in the blend band at the far end of a cascade's range, mixed with the next
+  // cascade's (the last one's with lit). Both filters are one loop body run once or twice: a CPU device
+  // (llvmpipe) runs the code of every branch for every lane whether or not a lane takes it, but leaves a loop
+  // when no lane goes on, so a second filter costs only the lanes' groups with a pixel in a band.
+  float band = view.info.w < 0 ? 0.0f : light.extra.z * (view.split.y - view.split.x);
+  bool blend = band > 0.0f && viewDepth > view.split.y - band;
+  float t = blend ? (viewDepth - (view.split.y - band)) / band : 0.0f;
+  int passes = blend && chosen + 1 < count ? 2 : 1;
+  float s = 1.0f;
+#ifndef VS_GLSL
+  // GCC kept the loop rolled, which cost the CPU pass 4 ms of the demo's 38.
+#pragma GCC unroll 2
+#endif
+  for (int k = 0; k < passes; ++k) {
+    bool covered = true;
+    if (k == 1) {
+      view = vsLoadView(first + chosen + 1);
+      covered = vsViewReceiver(light, view, p, n, toLight, nDotL, lightDistance, true, r, texel);
     }
-    s = mix(s, next, t);
+    float filtered = covered ? vsViewFilter(light, view, p, n, lightDistance, r, texel) : s;
+    s = k == 0 ? filtered : mix(s, filtered, t);
   }
+  if (blend && passes == 1) s = mix(s, 1.0f, t);
   return s;
 }
 
