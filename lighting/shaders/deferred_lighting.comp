@@ -2,6 +2,8 @@
 // arithmetic of lighting/shared/shading.h, which the CPU pass (lighting/deferred.cpp) compiles as C++.
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
+#define VS_ROLLED_TAP_LOOPS 1
 #define VS_GLSL 1
 #include "voxel/portable.h"
 #include "compute/shared/trace_rays.h"

@@ -16,6 +16,17 @@
 #ifndef VOXSHADOW_SHADOW_LOOKUP_H
 #define VOXSHADOW_SHADOW_LOOKUP_H
 
+// A filter's loop over its taps, kept rolled where the includer asks (VS_ROLLED_TAP_LOOPS, with
+// GL_EXT_control_flow_attributes enabled): a CPU device (llvmpipe) runs the code of every branch for every lane
+// of a group whether or not a lane takes it, but leaves a loop once no lane goes on, so a group whose pixels a
+// light does not reach (or whose lights face away) pays one tap instead of the kernel. The demo's lavapipe
+// lighting pass: 251 -> 219 ms. Unrolled or not, the taps are summed in the same order.
+#if defined(VS_GLSL) && defined(VS_ROLLED_TAP_LOOPS)
+#define VS_TAP_LOOP [[dont_unroll]]
+#else
+#define VS_TAP_LOOP
+#endif
+
 // A world-space hash of the receiver's texel: the disc filters' rotation is a property of the surface point,
 // not of the pixel, so the noise pattern stays on the surface as the camera moves.
 uint vsHashCell(ivec3 c) {
@@ -177,17 +188,17 @@ float vsFilterBox(VS_IN(ShadeView) view, vec2 texel, VS_IN(VsReceiver) r, int ra
     // vsCompare's arithmetic with each row's share of it done once per row: the kernel is centred on the
     // plane's base texel (both are floor(texel)), so a tap's offset from the base is (dx, dy), and its plane
     // depth (slope.x + dx * slope.y) + dy * slope.z is the very sum vsReceiverDepth forms.
-    for (int dy = -radius; dy <= radius; ++dy) {
+    VS_TAP_LOOP for (int dy = -radius; dy <= radius; ++dy) {
       VS_PRECISE float rowShare = float(dy) * r.slope.z;
       int row = vsStoredRow(view, centre.y + dy);
-      for (int dx = -radius; dx <= radius; ++dx) {
+      VS_TAP_LOOP for (int dx = -radius; dx <= radius; ++dx) {
         VS_PRECISE float plane = (r.slope.x + float(dx) * r.slope.y) + rowShare;
         sum += shadowTexels[row + vsStoredColumn(view, centre.x + dx)] < min(plane, r.depth) ? 0.0f : 1.0f;
       }
     }
   } else {
-    for (int dy = -radius; dy <= radius; ++dy)
-      for (int dx = -radius; dx <= radius; ++dx) sum += vsCompare(view, centre + ivec2(dx, dy), r);
+    VS_TAP_LOOP for (int dy = -radius; dy <= radius; ++dy)
+      VS_TAP_LOOP for (int dx = -radius; dx <= radius; ++dx) sum += vsCompare(view, centre + ivec2(dx, dy), r);
   }
   float side = float(2 * radius + 1);
   return sum / (side * side);
@@ -195,7 +206,7 @@ float vsFilterBox(VS_IN(ShadeView) view, vec2 texel, VS_IN(VsReceiver) r, int ra
 
 float vsFilterDisc(VS_IN(ShadeView) view, vec2 texel, VS_IN(VsReceiver) r, vec2 rotation, float radius) {
   float sum = 0.0f;
-  for (int i = 0; i < 16; ++i) sum += vsCompare(view, ivec2(floor(texel + vsDiscSample(i, rotation) * radius)), r);
+  VS_TAP_LOOP for (int i = 0; i < 16; ++i) sum += vsCompare(view, ivec2(floor(texel + vsDiscSample(i, rotation) * radius)), r);
   return sum / 16.0f;
 }
 
@@ -215,7 +226,7 @@ float vsFilterPcss(VS_IN(ShadeView) view, vec2 texel, VS_IN(VsReceiver) r, vec2 
   float blockers = 0.0f;
   float receivers = 0.0f;
   float count = 0.0f;
-  for (int i = 0; i < 16; ++i) {
+  VS_TAP_LOOP for (int i = 0; i < 16; ++i) {
     ivec2 t = ivec2(floor(texel + vsDiscSample(i, rotation) * search));
     float stored = vsStoredDepth(view, t);
     float receiver = vsReceiverDepth(view, t, r);

@@ -4,6 +4,8 @@
 //
 //   #define VS_SHADOWS_SET 1            // optional: the descriptor set (default 0)
 //   #define VS_SHADOWS_FIRST_BINDING 4  // optional: the first of its five bindings (default 0)
+//   #define VS_ROLLED_TAP_LOOPS 1       // optional, with GL_EXT_control_flow_attributes enabled: the filters'
+//                                       // tap loops kept rolled (the library's pass does: faster on llvmpipe)
 //   #include "lighting/shared/shadows.glsl"   // with -I <prefix>/include/voxshadow
 //   ...
 //   float s = vsShadowTerm(shadeLights[l], g, visibility, false);  // 1 lit, 0 shadowed
