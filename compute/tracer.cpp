@@ -215,6 +215,9 @@ std::uint64_t checkVisibilityTrace(const gpu::VisibilityRays& frame, std::span<c
     if (lights[l].kind.x != gpu::VS_VISIBILITY_TOWARD_POINT && lights[l].kind.x != gpu::VS_VISIBILITY_TOWARD_DIRECTION)
       throwBadInput(name + ".kind: " + std::to_string(lights[l].kind.x) +
                     " is neither VS_VISIBILITY_TOWARD_POINT nor VS_VISIBILITY_TOWARD_DIRECTION");
+    if (!(lights[l].kind.y >= 0.0f && std::isfinite(lights[l].kind.y)))
+      throwBadInput(name + ".kind.y (the light's range): " + std::to_string(lights[l].kind.y) +
+                    " is not a finite number >= 0");
   }
   for (std::size_t k = 0; k < receivers.size(); ++k)
     if (!finite(receivers[k].position, 4) || !finite(receivers[k].normal, 4))

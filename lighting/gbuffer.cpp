@@ -118,8 +118,9 @@ VisibilitySetup visibilitySetup(std::span<const gpu::ShadeLight> lights, std::sp
       v.target = glm::vec4(gpu::roundedToFloat(toLight), length);
       v.kind = glm::vec4(gpu::VS_VISIBILITY_TOWARD_DIRECTION, 0.0f, 0.0f, 0.0f);
     } else {
+      // Receivers beyond the light's range get no ray: the pass does not read their answers.
       v.target = glm::vec4(glm::vec3(lights[l].position), length);
-      v.kind = glm::vec4(gpu::VS_VISIBILITY_TOWARD_POINT, 0.0f, 0.0f, 0.0f);
+      v.kind = glm::vec4(gpu::VS_VISIBILITY_TOWARD_POINT, lights[l].position.w, 0.0f, 0.0f);
     }
   }
   return setup;

@@ -12,6 +12,8 @@
 #include "compute/cpu/cpu_tracer.h"
 #include "lighting/cascades.h"
 #include "lighting/deferred.h"
+#include "lighting/cpu_shading.h"
+#include "lighting/gbuffer.h"
 #include "lighting/renderer.h"
 #include "lighting/scene.h"
 #include "support/lighting_scenes.h"
@@ -321,6 +323,37 @@ TEST(LightingTruth, ALightThatDoesNotReachAReceiverLeavesItLit) {
       EXPECT_EQ(notLit, 0) << light.name << (source == ShadowSource::Maps ? ", maps" : ", ray-traced") << ": of "
                            << unreached << " receivers the light does not reach";
     }
+    // Visibility rays skip the receivers beyond a light's range (VisibilityLight.kind.y): each ray skipped is
+    // one whose answer the pass does not read (the light's attenuation there is 0 in the pass's own floats).
+    const ShadeInputs records = makeShadeRecords(scene.desc(), {}, source == ShadowSource::Raytraced);
+    const std::vector<float> unbounded(records.lights.size(), -1.0f);
+    VisibilitySetup ranged = visibilitySetup(records.lights, unbounded, scene.worldBounds());
+    VisibilitySetup everywhere = ranged;
+    for (gpu::VisibilityLight& l : everywhere.lights) l.kind.y = 0.0f;
+    std::vector<gpu::VisibilityReceiver> receivers;
+    visibilityReceivers(frame.gbuffer, {}, receivers);
+    std::vector<gpu::TraceRay> rangedRays, allRays;
+    visibilityRays(ranged.frame, ranged.lights, receivers, rangedRays);
+    visibilityRays(everywhere.frame, everywhere.lights, receivers, allRays);
+    gpu::CpuShading shading{};
+    int skipped = 0, skippedButLit = 0;
+    for (std::size_t k = 0; k < receivers.size(); ++k)
+      for (std::size_t l = 0; l < lights; ++l) {
+        const gpu::TraceRay& a = rangedRays[k * lights + l];
+        const gpu::TraceRay& b = allRays[k * lights + l];
+        const bool aEmpty = a.originLow.w < a.originHigh.w, bEmpty = b.originLow.w < b.originHigh.w;
+        if (aEmpty == bEmpty) {
+          EXPECT_EQ(std::memcmp(&a, &b, sizeof a), 0) << "receiver " << k << ", light " << l;
+          continue;
+        }
+        ++skipped;
+        glm::vec3 toLight;
+        float distance = 0.0f;
+        skippedButLit += shading.vsLightGeometry(records.lights[l], glm::vec3(frame.gbuffer.texels[k].position), toLight,
+                                                 distance) != 0.0f;
+      }
+    EXPECT_GT(skipped, 1000);
+    EXPECT_EQ(skippedButLit, 0) << "of " << skipped << " rays skipped";
   }
 }
 

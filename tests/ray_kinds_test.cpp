@@ -653,21 +653,24 @@ TEST_F(RayKinds, BadCameraTracesAreRefused) {
 }
 
 // Lights around a scene's world box for visibility rays: a point above it, the sun, a point with short
-// (contact) rays, one that needs no ray, and a point inside the box.
+// (contact) rays, one that needs no ray, a point inside the box, and one inside it whose range reaches part of
+// the receivers.
 std::vector<gpu::VisibilityLight> visibilityLights(const Aabb& box) {
   const glm::dvec3 lo(box.min), hi(box.max), centre = (lo + hi) * 0.5;
   const double reach = glm::length(hi - lo);
-  auto light = [](glm::dvec3 target, float length, float kind) {
+  auto light = [](glm::dvec3 target, float length, float kind, float range = 0.0f) {
     gpu::VisibilityLight l{};
     l.target = glm::vec4(glm::vec3(target), length);
-    l.kind = glm::vec4(kind, 0.0f, 0.0f, 0.0f);
+    l.kind = glm::vec4(kind, range, 0.0f, 0.0f);
     return l;
   };
   return {light(centre + glm::dvec3(0.2, 0.9, -0.1) * reach, -1.0f, gpu::VS_VISIBILITY_TOWARD_POINT),
           light(glm::normalize(glm::dvec3(0.3, 1.0, 0.45)), -1.0f, gpu::VS_VISIBILITY_TOWARD_DIRECTION),
           light(centre + glm::dvec3(-0.6, 0.4, 0.3) * reach, float(0.05 * reach), gpu::VS_VISIBILITY_TOWARD_POINT),
           light(centre + glm::dvec3(0.0, 2.0, 0.0) * reach, 0.0f, gpu::VS_VISIBILITY_TOWARD_POINT),
-          light(centre + glm::dvec3(0.05, 0.02, -0.03) * reach, -1.0f, gpu::VS_VISIBILITY_TOWARD_POINT)};
+          light(centre + glm::dvec3(0.05, 0.02, -0.03) * reach, -1.0f, gpu::VS_VISIBILITY_TOWARD_POINT),
+          light(centre + glm::dvec3(-0.1, 0.1, 0.15) * reach, -1.0f, gpu::VS_VISIBILITY_TOWARD_POINT,
+                float(0.4 * reach))};
 }
 
 // Receivers spread over a box grown by a tenth: surface points with unit normals, offsets of a thousandth of
@@ -708,7 +711,7 @@ TEST_F(RayKinds, VisibilityRaysMadeWhereTracedEqualTheHostsAndReachTheLights) {
 
     // Each ray against its own construction in double.
     double worstAngle = 0.0, worstLength = 0.0, worstOrigin = 0.0;
-    std::size_t empty = 0, mismatchedEmpty = 0;
+    std::size_t empty = 0, mismatchedEmpty = 0, beyondRange = 0;
     for (std::size_t k = 0; k < receivers.size(); ++k)
       for (std::size_t l = 0; l < lights.size(); ++l) {
         const gpu::TraceRay& r = rays[k * lights.size() + l];
@@ -717,6 +720,16 @@ TEST_F(RayKinds, VisibilityRaysMadeWhereTracedEqualTheHostsAndReachTheLights) {
         const glm::dvec3 n(glm::vec3(rc.normal));
         const glm::dvec3 origin = glm::dvec3(glm::vec3(rc.position)) + n * double(rc.position.w);
         bool wantEmpty = rc.normal.w == 0.0f || li.target.w == 0.0f;
+        if (!wantEmpty && li.kind.x == gpu::VS_VISIBILITY_TOWARD_POINT && li.kind.y > 0.0f) {
+          // Beyond the light's range (from the surface point, with the margin): no ray.
+          const double distance = glm::length(glm::dvec3(glm::vec3(rc.position)) - glm::dvec3(glm::vec3(li.target)));
+          const double limit = double(li.kind.y) * (1.0 + gpu::VS_VISIBILITY_REACH_MARGIN);
+          if (std::abs(distance - limit) < 1e-9 * limit) continue;  // a tie that rounding may decide either way
+          if (distance > limit) {
+            ++beyondRange;
+            wantEmpty = true;
+          }
+        }
         glm::dvec3 dir(0.0);
         double length = 0.0;
         if (!wantEmpty && li.kind.x == gpu::VS_VISIBILITY_TOWARD_DIRECTION) {
@@ -752,6 +765,8 @@ TEST_F(RayKinds, VisibilityRaysMadeWhereTracedEqualTheHostsAndReachTheLights) {
                 "%zu of %zu empty\n",
                 worstAngle, worstLength, worstOrigin, empty, rays.size());
     EXPECT_EQ(mismatchedEmpty, 0u);
+    EXPECT_GT(beyondRange, receivers.size() / 10) << "receivers beyond the ranged light's reach";
+    EXPECT_LT(beyondRange, receivers.size() * 9 / 10) << "receivers within the ranged light's reach";
     EXPECT_LT(worstAngle, 1e-6);
     EXPECT_LT(worstLength, 1e-6);
     EXPECT_LT(worstOrigin, 1e-12);
@@ -823,6 +838,11 @@ TEST_F(RayKinds, BadVisibilityTracesAreRefused) {
     std::vector<gpu::VisibilityLight> badKind = lights;
     badKind[1].kind.x = 2.0f;
     EXPECT_NE(refusal(*t, frame, badKind, receivers, answers).find("lights[1].kind"), std::string::npos);
+    for (float range : {-1.0f, std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity()}) {
+      std::vector<gpu::VisibilityLight> badRange = lights;
+      badRange[4].kind.y = range;
+      EXPECT_NE(refusal(*t, frame, badRange, receivers, answers).find("lights[4].kind.y"), std::string::npos) << range;
+    }
     std::vector<gpu::VisibilityLight> nanLight = lights;
     nanLight[2].target.w = std::numeric_limits<float>::quiet_NaN();
     EXPECT_NE(refusal(*t, frame, nanLight, receivers, answers).find("lights[2].target"), std::string::npos);

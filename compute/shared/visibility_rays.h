@@ -50,10 +50,17 @@ VS_LANE_INLINE double vsExitDistance(dvec3 o, dvec3 d, dvec3 lo, dvec3 hi) {
 // Receiver `r`'s ray toward `light`: from the surface point moved off its face by r.position.w along the
 // normal, toward the light's position (ending there) or along the unit vector toward it (ending where it leaves
 // the record's world box), cut to the light's longest ray when that is > 0. The empty ray (vsEmptyVisibilityRay)
-// where the receiver has no surface, the light needs no ray, the start is the light's position, or the surface
+// where the receiver has no surface, the light needs no ray, the receiver's surface point lies beyond the
+// light's range (kind.y, with VS_VISIBILITY_REACH_MARGIN), the start is the light's position, or the surface
 // faces away from the light.
 VS_LANE_INLINE TraceRay vsVisibilityRay(VisibilityRays frame, VisibilityLight light, VisibilityReceiver r) {
   if (r.normal.w == 0.0f || light.target.w == 0.0f) return vsEmptyVisibilityRay();
+  if (light.kind.x == VS_VISIBILITY_TOWARD_POINT && light.kind.y > 0.0f) {
+    VS_PRECISE dvec3 fromLight = dvec3(vec3(r.position)) - dvec3(vec3(light.target));
+    VS_PRECISE double distance = sqrt(fromLight.x * fromLight.x + fromLight.y * fromLight.y + fromLight.z * fromLight.z);
+    VS_PRECISE double reach = double(light.kind.y) * (double(1.0f) + VS_VISIBILITY_REACH_MARGIN);
+    if (distance > reach) return vsEmptyVisibilityRay();
+  }
   VS_PRECISE dvec3 n = dvec3(vec3(r.normal));
   VS_PRECISE dvec3 origin = dvec3(vec3(r.position)) + n * double(r.position.w);
   VS_PRECISE dvec3 toLight = dvec3(vec3(light.target));
