@@ -137,7 +137,8 @@ class Tracer {
   // traceAny does: the same answers bit for bit. frame.counts is ignored.
   // Preconditions: setScene was called; at least one light; occluded as long as receivers * lights; every
   // number of the record, lights and receivers finite except a light's `target.w` (any length < 0 means
-  // unbounded) and a light kind one of VS_VISIBILITY_TOWARD_* (else vs::Error(BadInput), nothing traced).
+  // unbounded), a light kind one of VS_VISIBILITY_TOWARD_* and its range `kind.y` >= 0 (else
+  // vs::Error(BadInput), nothing traced).
   TraceStats traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
                              std::span<const gpu::VisibilityReceiver> receivers, std::span<std::uint32_t> occluded) {
     Exclusive hold(*this);

@@ -37,7 +37,8 @@ void resolveGBufferPixels(const Scene& scene, const CameraFrame& camera, std::sp
 
 // The visibility rays of a frame's lights (compute/shared/visibility_rays.h): the record and one light record
 // per light, toward the light (spot, point: its position; directional: out of the world bounds), at most
-// maxLength[light] long (< 0: unbounded; 0, or no entry: the light needs no ray).
+// maxLength[light] long (< 0: unbounded; 0, or no entry: the light needs no ray); a spot or point light's
+// range in kind.y, so that receivers beyond it get no ray.
 struct VisibilitySetup {
   gpu::VisibilityRays frame{};
   std::vector<gpu::VisibilityLight> lights;
@@ -53,8 +54,8 @@ void visibilityReceivers(const GBuffer& gbuffer, std::span<const std::uint32_t> 
                          std::vector<gpu::VisibilityReceiver>& receivers);
 
 // One visibility ray per pixel and light (pixel * lights + light), as Tracer::traceVisibility makes them for
-// visibilitySetup and visibilityReceivers: pixels without a hit, facing away from the light, or of a light that
-// needs no ray get an empty ray (tMax < tMin: clear).
+// visibilitySetup and visibilityReceivers: pixels without a hit, facing away from the light, beyond its range,
+// or of a light that needs no ray get an empty ray (tMax < tMin: clear).
 std::vector<gpu::TraceRay> visibilityRays(const GBuffer& gbuffer, std::span<const gpu::ShadeLight> lights,
                                           std::span<const float> maxLength, const Aabb& worldBounds);
 

@@ -16,6 +16,7 @@
 
 #include "compute/cpu/lane_tracer.h"
 #include "compute/cpu/scene_arrays.h"
+#include "compute/shared/visibility_rays.h"
 #include "compute/tracer.h"
 #include "compute/vulkan/vulkan_tracer.h"
 #include "compute/cpu/cpu_tracer.h"

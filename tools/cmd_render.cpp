@@ -54,7 +54,7 @@ struct FrameSizes {
   std::uint64_t layerBytes = 0;            // every shadow layer the frame traces
   std::uint64_t momentBytes = 0;           // EVSM: the moment store and the moment pass's scratch (16 B each)
   std::uint64_t maxW = 0, maxH = 0, views = 0;
-  std::uint64_t rays = 0;                  // visibility rays: one per pixel and light when any light needs them
+  std::uint64_t rays = 0;                  // visibility rays: one per pixel and light that needs them
 };
 
 FrameSizes frameSizes(const Scene& scene, const RenderOptions& render) {
@@ -76,17 +76,19 @@ FrameSizes frameSizes(const Scene& scene, const RenderOptions& render) {
       f.maxH = std::max<std::uint64_t>(f.maxH, std::uint64_t(v.trace.info.y));
       ++f.views;
     }
-  const bool rays = std::any_of(desc.lights.begin(), desc.lights.end(), [&](const LightDesc& l) {
-    return l.shadow && (raytraced || l.shadow->contactShadow != 0.0f);
-  });
-  f.rays = rays ? f.pixels * f.lights : 0;
+  // At most: a receiver beyond a light's range gets no ray, but the buffers are sized for every pixel.
+  const std::uint64_t rayLights = std::uint64_t(std::count_if(desc.lights.begin(), desc.lights.end(), [&](const LightDesc& l) {
+    return l.enabled && l.shadow && (raytraced || l.shadow->contactShadow != 0.0f);
+  }));
+  f.rays = f.pixels * rayLights;
   return f;
 }
 
 // What a render holds in host memory at its peak, from what FrameRenderer allocates in each stage: the shadow
 // layers, and the copy of their texels the lighting inputs keep; the G-buffer trace (primary rays 48 B, hits
 // 32 B and G-buffer texels 64 B a pixel); the visibility rays (a 32-byte receiver a pixel, a 4-byte answer a
-// ray: the rays themselves are made where they are traced, in slices on the CPU); the lit image
+// ray toward each light that has rays, kept, and their spread per pixel and light, 4 B each: the rays
+// themselves are made where they are traced, in slices on the CPU); the lit image
 // (16 B a pixel) and shadow terms (4 B a pixel and light); the file's pixels; and on Vulkan the host-visible
 // buffers the tracer and the lighting pass keep until the end (on a CPU device such as lavapipe, whose device
 // memory is host memory, the shadow image and the driver's own working memory too).
@@ -96,6 +98,8 @@ std::uint64_t renderBytesNeeded(const FrameSizes& f, bool exr, const VulkanDevic
   const std::uint64_t gbuffer = pixels * 64;
   const std::uint64_t file = exr ? pixels * (15 + f.lights) * sizeof(float) : pixels * 3;
   const std::uint64_t receivers = f.rays > 0 ? pixels * 32 : 0;
+  // The answers (kept across frames) and their spread per pixel and light.
+  const std::uint64_t answers = f.rays > 0 ? f.rays * 4 + perLight : 0;
   // The Vulkan buffers, as each stage adds them.
   std::uint64_t vTrace = 0, vPrimary = 0, vVisibility = 0, vShade = 0;
   if (device) {
@@ -108,9 +112,11 @@ std::uint64_t renderBytesNeeded(const FrameSizes& f, bool exr, const VulkanDevic
   const std::uint64_t stages[] = {
       layers + vTrace,
       layers + pixels * (48 + 32 + 64) + vTrace + vPrimary,
-      2 * layers + gbuffer + receivers + f.rays * 4 + vTrace + vPrimary + vVisibility,
-      2 * layers + f.momentBytes + gbuffer + 2 * perLight + pixels * 16 + vTrace + vPrimary + vVisibility + vShade,
-      layers + f.momentBytes + gbuffer + pixels * 16 + perLight + file + vTrace + vPrimary + vVisibility + vShade,
+      2 * layers + gbuffer + receivers + answers + vTrace + vPrimary + vVisibility,
+      2 * layers + f.momentBytes + gbuffer + answers + 2 * perLight + pixels * 16 + vTrace + vPrimary + vVisibility +
+          vShade,
+      layers + f.momentBytes + gbuffer + answers + pixels * 16 + perLight + file + vTrace + vPrimary + vVisibility +
+          vShade,
   };
   return *std::max_element(std::begin(stages), std::end(stages));
 }
@@ -209,7 +215,7 @@ void registerRender(CLI::App& app) {
   sub->add_option("--backend", options->backend, "Trace backend")
       ->check(CLI::IsMember({"cpu", "vulkan"}))
       ->capture_default_str();
-  sub->add_option("--shadows", options->shadows, "Shadow maps, or one exact visibility ray per pixel and light")
+  sub->add_option("--shadows", options->shadows, "Shadow maps, or one exact visibility ray per pixel and light that reaches it")
       ->check(CLI::IsMember({"maps", "raytraced"}))
       ->capture_default_str();
   sub->add_option("--debug", options->debug, "Debug view: cascades, shadow, normals, layer=N (a shadow layer's depths) or moments=N (its EVSM moments)");

@@ -55,15 +55,9 @@ struct VisibilityLight {
   vec4 target;  // xyz: the light's position, or the unit vector toward it; w: the longest ray (< 0: unbounded,
                 // 0: the light needs no ray)
   vec4 kind;    // x: VS_VISIBILITY_TOWARD_POINT or VS_VISIBILITY_TOWARD_DIRECTION; y: toward a point, the
-                // light's range (> 0: a receiver farther from it than the range by VS_VISIBILITY_REACH_MARGIN
-                // gets no ray; 0: every receiver gets one); zw: 0
+                // light's range (> 0: a receiver farther from it than the range by VS_VISIBILITY_REACH_MARGIN,
+                // compute/shared/visibility_rays.h, gets no ray; 0: every receiver gets one); zw: 0
 };
-
-// A light's reach for its rays (VisibilityLight.kind.y), relative: wide enough that the lighting pass's float
-// distance to the light, from the same floats, cannot fall within the range where the rays' double one
-// exceeds it by this much. The pass gives a receiver beyond the range shadow term 1 without reading its ray
-// (lighting/shared/shadow_lookup.h, vsShadowTerm), so a ray skipped there changes no term.
-const double VS_VISIBILITY_REACH_MARGIN = double(1.0e-4f);
 
 struct VisibilityReceiver {
   vec4 position;  // xyz: the surface point; w: how far off its face (along the normal) the rays start

@@ -4,7 +4,7 @@
 // the device, and the CPU and the lighting's change tracking make the very same rays with the same operations.
 //
 // The arithmetic is in double, as the host's was before the rays moved to the device: additions,
-// multiplications, one division and one square root, none of them contracted (`precise`), each correctly rounded
+// multiplications, divisions and square roots, none of them contracted (`precise`), each correctly rounded
 // wherever the device's doubles are IEEE (as lavapipe's and the GPUs' are; the camera rays' VS_DIV relies on the
 // same), then rounded to the ray's floats once.
 #ifndef VOXSHADOW_VISIBILITY_RAYS_H
@@ -21,6 +21,12 @@ VS_NAMESPACE_BEGIN
 // The host's guaranteed rounding (voxel/portable.h): the vectorizer once kept a conversion at double precision.
 #define VS_DOUBLE_TO_FLOAT3(v) roundedToFloat(v)
 #endif
+
+// A light's reach for its rays (VisibilityLight.kind.y), relative: wide enough that the lighting pass's float
+// distance to the light, from the same floats, cannot fall within the range where the rays' double one
+// exceeds it by this much. The pass gives a receiver beyond the range shadow term 1 without reading its ray
+// (lighting/shared/shadow_lookup.h, vsShadowTerm), so a ray skipped there changes no term.
+const double VS_VISIBILITY_REACH_MARGIN = double(1.0e-4f);
 
 // The ray that answers nothing: tMax < tMin, which every tracer reports clear.
 VS_LANE_INLINE TraceRay vsEmptyVisibilityRay() {

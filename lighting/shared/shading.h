@@ -7,7 +7,8 @@
 // or buffer members of these names:
 //   shadeLights[i] (ShadeLight)
 //   rayVisibility[i] (uint): per pixel and light (pixel * lightCount + light), 1 where the exact visibility
-//     ray toward the light (its whole length for ray-traced shadows, the contact length otherwise) is clear
+//     ray toward the light (its whole length for ray-traced shadows, the contact length otherwise) is clear,
+//     and where no ray was traced (a light without one, a receiver beyond its range: the term ignores it)
 //   shadowTerms[i] (float, written): per pixel and light, the shadow term vsShadePixel used
 //   with VS_LIGHTING_VARIANT defined (the shader build that pipeline variants specialise):
 //     vsSpecializedLightCount, vsSpecializedMode, vsSpecializedRaytraced, vsSpecializedLight (see vsShadePixel)
