@@ -9,6 +9,7 @@
 
 #include "compute/shared/camera_rays.h"
 #include "compute/shared/visibility_rays.h"
+#include "lighting/shared/gbuffer_resolve.h"
 #include "voxel/error.h"
 
 namespace vs {
@@ -17,53 +18,38 @@ namespace {
 
 const glm::dvec3 kFaceNormals[6] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}};
 
+gpu::GBufferTexel resolveHit(const GBufferTables& tables, const gpu::CameraRays& rays, std::uint32_t pixel,
+                             const gpu::RayHit& h) {
+  if (h.hit == 0u) return gpu::vsResolveHit(rays, pixel, h, gpu::GBufferInstance{}, glm::vec3(0.0f));
+  if (h.instance >= tables.instances.size()) throwRuntime("G-buffer: a hit names instance " + std::to_string(h.instance));
+  const gpu::GBufferInstance& inst = tables.instances[h.instance];
+  const int slot = gpu::vsPaletteSlot(inst, h.material);
+  const glm::vec3 albedo = slot >= 0 ? glm::vec3(tables.palette[std::size_t(slot)]) : glm::vec3(gpu::VS_MISSING_ALBEDO);
+  return gpu::vsResolveHit(rays, pixel, h, inst, albedo);
+}
+
 }  // namespace
 
-namespace {
-
-// Per instance: its six faces' unit world normals (VS_FACE_* order), the voxel's world size and the palette.
-struct InstanceFrame {
-  glm::dvec3 faceNormals[6];
-  double voxelSize;
-  const std::vector<glm::vec3>* palette;
-};
-
-std::vector<InstanceFrame> instanceFrames(const Scene& scene) {
-  std::vector<InstanceFrame> frames;
+GBufferTables gbufferTables(const Scene& scene) {
+  GBufferTables tables;
+  std::vector<std::uint32_t> firstColour;
+  for (const VoxelObject& object : scene.objects()) {
+    firstColour.push_back(std::uint32_t(tables.palette.size()));
+    for (const glm::vec3& c : object.palette) tables.palette.push_back(glm::vec4(c, 1.0f));
+  }
   for (const SceneInstance& inst : scene.instances()) {
+    // The faces' normals through the inverse transpose, and the voxel's world size, in double, rounded once.
     const glm::dmat3 linear(inst.brickToWorld);
     const glm::dmat3 normalMatrix = glm::transpose(glm::inverse(linear));
-    InstanceFrame f{};
-    for (int face = 0; face < 6; ++face) f.faceNormals[face] = glm::normalize(normalMatrix * kFaceNormals[face]);
-    f.voxelSize = std::cbrt(std::abs(glm::determinant(linear)));
-    f.palette = &scene.objects()[inst.object].palette;
-    frames.push_back(f);
+    const float voxelSize = float(std::cbrt(std::abs(glm::determinant(linear))));
+    gpu::GBufferInstance g{};
+    for (int face = 0; face < 6; ++face)
+      g.faceNormals[face] = glm::vec4(glm::vec3(glm::normalize(normalMatrix * kFaceNormals[face])), voxelSize);
+    g.palette = glm::uvec4(firstColour[inst.object], std::uint32_t(scene.objects()[inst.object].palette.size()), 0u, 0u);
+    tables.instances.push_back(g);
   }
-  return frames;
+  return tables;
 }
-
-gpu::GBufferTexel resolveHit(const std::vector<InstanceFrame>& frames, const CameraFrame& camera,
-                             const gpu::CameraRays& rays, std::uint32_t pixel, const gpu::RayHit& h) {
-  gpu::GBufferTexel t{};
-  if (h.hit == 0u) return t;
-  const gpu::TraceRay r = gpu::vsCameraRay(rays, pixel);
-  if (h.instance >= frames.size()) throwRuntime("G-buffer: a hit names instance " + std::to_string(h.instance));
-  const InstanceFrame& f = frames[h.instance];
-  const glm::dvec3 origin = glm::dvec3(glm::vec3(r.originHigh)) + glm::dvec3(glm::vec3(r.originLow));
-  const glm::dvec3 dir(glm::vec3(r.direction));
-  const glm::dvec3 p = origin + dir * double(h.t);
-  const std::uint32_t face = std::uint32_t(h.voxel.w);
-  glm::dvec3 n = face < 6u ? f.faceNormals[face] : -glm::normalize(dir);
-  t.position = glm::vec4(glm::vec3(p), float(glm::dot(p - camera.position, camera.forward)));
-  t.normal = glm::vec4(glm::vec3(n), float(f.voxelSize));
-  const std::vector<glm::vec3>& palette = *f.palette;
-  const glm::vec3 albedo = h.material < palette.size() ? palette[h.material] : glm::vec3(0.8f);
-  t.albedo = glm::vec4(albedo, 1.0f);
-  t.info = glm::uvec4(h.instance, h.material, face, 1u);
-  return t;
-}
-
-}  // namespace
 
 void resolveGBuffer(const Scene& scene, const CameraFrame& camera, std::span<const gpu::RayHit> hits, GBuffer& g) {
   const std::size_t count = std::size_t(camera.width) * std::size_t(camera.height);
@@ -72,10 +58,10 @@ void resolveGBuffer(const Scene& scene, const CameraFrame& camera, std::span<con
   g.width = camera.width;
   g.height = camera.height;
   g.texels.resize(count);
-  const std::vector<InstanceFrame> frames = instanceFrames(scene);
+  const GBufferTables tables = gbufferTables(scene);
   const gpu::CameraRays rays = cameraRaysOf(camera);
   tbb::parallel_for(std::size_t(0), count, [&](std::size_t i) {
-    g.texels[i] = resolveHit(frames, camera, rays, std::uint32_t(i), hits[i]);
+    g.texels[i] = resolveHit(tables, rays, std::uint32_t(i), hits[i]);
   });
 }
 
@@ -84,12 +70,12 @@ void resolveGBufferPixels(const Scene& scene, const CameraFrame& camera, std::sp
   if (hits.size() != pixels.size() || g.width != camera.width || g.height != camera.height ||
       g.texels.size() != std::size_t(camera.width) * std::size_t(camera.height))
     throwBadInput("G-buffer: hits, pixels and the G-buffer disagree on sizes");
-  const std::vector<InstanceFrame> frames = instanceFrames(scene);
+  const GBufferTables tables = gbufferTables(scene);
   const gpu::CameraRays rays = cameraRaysOf(camera);
   for (std::uint32_t p : pixels)
     if (p >= g.texels.size()) throwBadInput("G-buffer: pixel " + std::to_string(p) + " outside the frame");
   tbb::parallel_for(std::size_t(0), pixels.size(), [&](std::size_t k) {
-    g.texels[pixels[k]] = resolveHit(frames, camera, rays, pixels[k], hits[k]);
+    g.texels[pixels[k]] = resolveHit(tables, rays, pixels[k], hits[k]);
   });
 }
 
@@ -126,13 +112,7 @@ VisibilitySetup visibilitySetup(std::span<const gpu::ShadeLight> lights, std::sp
   return setup;
 }
 
-gpu::VisibilityReceiver visibilityReceiver(const gpu::GBufferTexel& texel) {
-  gpu::VisibilityReceiver r{};
-  if (texel.info.w == 0u) return r;
-  r.position = glm::vec4(glm::vec3(texel.position), float(1e-3 * double(texel.normal.w)));
-  r.normal = glm::vec4(glm::vec3(texel.normal), 1.0f);
-  return r;
-}
+gpu::VisibilityReceiver visibilityReceiver(const gpu::GBufferTexel& texel) { return gpu::vsReceiverOf(texel); }
 
 void visibilityReceivers(const GBuffer& gbuffer, std::span<const std::uint32_t> pixels,
                          std::vector<gpu::VisibilityReceiver>& receivers) {

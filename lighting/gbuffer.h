@@ -19,9 +19,18 @@ struct GBuffer {
   std::vector<gpu::GBufferTexel> texels;  // row 0 at the top
 };
 
+// What resolving a scene's hits reads besides the hits (lighting/shared/gbuffer_resolve.h): one record per
+// instance (its faces' world normals through its inverse transpose, its voxel's world size, where its object's
+// colours start) and every object's palette, one after another.
+struct GBufferTables {
+  std::vector<gpu::GBufferInstance> instances;
+  std::vector<glm::vec4> palette;
+};
+GBufferTables gbufferTables(const Scene& scene);
+
 // Traces the primary rays (Tracer::traceCamera: made where they are traced) and resolves each hit into world
-// position (origin + t * direction in double), world face normal (the entry face through the instance's inverse
-// transpose), the voxel's palette colour, view depth and instance. Preconditions: tracer.setScene(scene.data()) was called for this scene.
+// position, view depth, world face normal, the voxel's palette colour and instance (vsResolveHit: the function
+// the device's resolve runs). Preconditions: tracer.setScene(scene.data()) was called for this scene.
 GBuffer traceGBuffer(const Scene& scene, const CameraFrame& camera, Tracer& tracer);
 
 // The same from closest-hit records already traced (hits[i] that of pixel i's primary ray), written into g
@@ -46,7 +55,7 @@ struct VisibilitySetup {
 VisibilitySetup visibilitySetup(std::span<const gpu::ShadeLight> lights, std::span<const float> maxLength,
                                 const Aabb& worldBounds);
 // A G-buffer texel as the receiver of visibility rays: its rays start off its face by a thousandth of its
-// voxel; a texel without a hit receives no ray.
+// voxel; a texel without a hit receives no ray (gpu::vsReceiverOf, which the device's resolve runs too).
 gpu::VisibilityReceiver visibilityReceiver(const gpu::GBufferTexel& texel);
 // The receivers of the given pixels (row-major indices) into `receivers` (resized, its storage reused); every
 // pixel's when `pixels` is empty.

@@ -420,6 +420,25 @@ VulkanShadows FrameRenderer::vulkanShadows() const {
   return s.lighting->shadows(s.frame.width, s.frame.height);
 }
 
+GBuffer FrameRenderer::deviceGBuffer() const {
+  InUse use(*this, "deviceGBuffer");
+  if (tracerAlive_.expired())
+    throwRuntime("FrameRenderer::deviceGBuffer: the renderer's tracer was destroyed");
+  if (!tracer_.vulkan())
+    throwBadInput("FrameRenderer::deviceGBuffer: the renderer's tracer is not a Vulkan tracer (the CPU backend's "
+                  "G-buffer is RenderedFrame::gbuffer)");
+  Tracer::Exclusive hold(tracer_);
+  const State& s = *state_;
+  if (!s.valid || !s.lighting)
+    throwRuntime("FrameRenderer::deviceGBuffer: no completed frame's lighting pass holds a G-buffer");
+  GBuffer out;
+  out.width = s.frame.width;
+  out.height = s.frame.height;
+  out.texels.resize(std::size_t(out.width) * std::size_t(out.height));
+  s.lighting->readGBuffer(out);
+  return out;
+}
+
 const RenderedFrame& FrameRenderer::render(const Scene& scene, const RenderOptions& options) {
   InUse use(*this, "render");
   if (tracerAlive_.expired())
@@ -686,6 +705,15 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   if (vulkan && !deviceStore) stats.bytesReadBack += stats.texelsTraced * sizeof(float);
   timings.shadowMs = msSince(t0);
 
+  // The Vulkan lighting pass, made on the tracer's device with the first frame that needs it.
+  auto lightingPass = [&]() -> VulkanLighting& {
+    if (!s.lighting) {
+      s.context = vulkan->sharedContext();
+      s.lighting = std::make_unique<VulkanLighting>(s.context);
+    }
+    return *s.lighting;
+  };
+
   // 3. The G-buffer: every pixel when the camera or the frame changed, else the pixels whose primary rays
   // may pass through a changed box.
   t0 = Clock::now();
@@ -724,6 +752,12 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   if (vulkan && stats.primaryRays > 0) {
     stats.bytesUploaded += sizeof(gpu::CameraRays) + primaryPixels.size() * sizeof(std::uint32_t);
     stats.bytesReadBack += stats.primaryRays * sizeof(gpu::RayHit);
+    // The same hits resolved on the device into the lighting pass's G-buffer, which then reads it in place: the
+    // host's copy above serves the marking below and the caller.
+    LightingTraffic traffic;
+    lightingPass().resolveGBuffer(vulkan->lastCameraTrace(), gbufferTables(scene), frame.gbuffer, &traffic);
+    stats.bytesUploaded += traffic.uploaded;
+    stats.dispatches += traffic.dispatches;
   }
   timings.gbufferMs = msSince(t0);
 
@@ -741,6 +775,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
                            s.visible.size() != pixelCount * lightCount;
   std::vector<std::uint32_t> visible;
   std::size_t receiversTraced = 0;
+  std::uint64_t receiverBytes = 0;  // receivers or their pixel list, uploaded (Vulkan)
   if (needRays) {
     // The rays are made where they are traced, from one receiver per pixel (Tracer::traceVisibility), toward
     // the lights that have rays.
@@ -753,44 +788,49 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
     const VisibilitySetup setup = visibilitySetup(tracedLights, tracedLengths, scene.worldBounds());
     std::vector<gpu::VisibilityReceiver>& receivers = s.receivers;
     std::vector<std::uint32_t>& answers = s.answers;
-    // Receiver k's answers (ray k * traced + j toward light rayLights[j], nonzero where occluded) into `visible`
-    // at its pixel: 1 where clear, and 1 for every light without a ray.
-    auto spreadAnswers = [&](std::span<const std::uint32_t> pixels) {
+    // Traces the rays of the given pixels' receivers (every pixel's when empty) toward the lights that have
+    // rays, and spreads receiver k's answers (ray k * traced + j toward light rayLights[j], nonzero where
+    // occluded) into `visible` at its pixel: 1 where clear, and 1 for every light without a ray. On Vulkan the
+    // receivers are those the G-buffer resolve left on the device beside the G-buffer, where it holds them
+    // whole: only the pixel list goes up.
+    auto traceAndSpread = [&](std::span<const std::uint32_t> pixels) {
+      const std::size_t taken = pixels.empty() ? pixelCount : pixels.size();
       const std::size_t traced = rayLights.size();
-      tbb::parallel_for(std::size_t(0), receivers.size(), [&](std::size_t k) {
+      answers.resize(taken * traced);
+      DeviceReceivers onDevice = vulkan && s.lighting ? s.lighting->receivers(pixelCount) : DeviceReceivers{};
+      TraceStats ts;
+      if (onDevice.buffer) {
+        onDevice.pixels = pixels;
+        ts = vulkan->traceVisibility(setup.frame, setup.lights, onDevice, answers);
+        receiverBytes += pixels.size_bytes();
+      } else {
+        visibilityReceivers(frame.gbuffer, pixels, receivers);
+        ts = tracer_.traceVisibility(setup.frame, setup.lights, receivers, answers);
+        receiverBytes += receivers.size() * sizeof(gpu::VisibilityReceiver);
+      }
+      stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
+      tbb::parallel_for(std::size_t(0), taken, [&](std::size_t k) {
         std::uint32_t* row = visible.data() + std::size_t(pixels.empty() ? k : pixels[k]) * lightCount;
         std::fill(row, row + lightCount, 1u);
         for (std::size_t j = 0; j < traced; ++j) row[rayLights[j]] = answers[k * traced + j] == 0u ? 1u : 0u;
       });
       stats.visibilityRays = answers.size();
-      receiversTraced = receivers.size();
+      receiversTraced = taken;
     };
     if (allPixels || raysChanged) {
-      visibilityReceivers(frame.gbuffer, {}, receivers);
-      answers.resize(receivers.size() * rayLights.size());
-      const TraceStats ts = tracer_.traceVisibility(setup.frame, setup.lights, receivers, answers);
-      stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
       visible.swap(s.visible);
-      visible.resize(receivers.size() * lightCount);
-      spreadAnswers({});
+      visible.resize(pixelCount * lightCount);
+      traceAndSpread({});
       std::fill(marks.begin(), marks.end(), std::uint8_t(1));
     } else {
       visible.swap(s.visible);
       markVisibilityRaysMeeting(frame.gbuffer, inputs.lights, inputs.rayLength, scene.worldBounds(), boxes, marks);
       const std::vector<std::uint32_t> pixels = markedPixels(marks);
-      if (!pixels.empty()) {
-        visibilityReceivers(frame.gbuffer, pixels, receivers);
-        answers.resize(receivers.size() * rayLights.size());
-        const TraceStats ts = tracer_.traceVisibility(setup.frame, setup.lights, receivers, answers);
-        stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
-        spreadAnswers(pixels);
-      }
+      if (!pixels.empty()) traceAndSpread(pixels);
     }
   }
   if (vulkan && receiversTraced > 0) {
-    stats.bytesUploaded += sizeof(gpu::VisibilityRays) +
-                           rayLights.size() * sizeof(gpu::VisibilityLight) +
-                           receiversTraced * sizeof(gpu::VisibilityReceiver);
+    stats.bytesUploaded += sizeof(gpu::VisibilityRays) + rayLights.size() * sizeof(gpu::VisibilityLight) + receiverBytes;
     stats.bytesReadBack += stats.visibilityRays * sizeof(std::uint32_t);
   }
   timings.visibilityMs = msSince(t0);
@@ -854,10 +894,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   if (!shadeAll) pixels = markedPixels(marks);
   if (vulkan) {
     if (shadeAll || !pixels.empty() || !momentJobs.empty()) {
-      if (!s.lighting) {
-        s.context = vulkan->sharedContext();
-        s.lighting = std::make_unique<VulkanLighting>(s.context);
-      }
+      lightingPass();
       LightingTraffic traffic;
       // The pass keeps its inputs in place: while the layer store keeps its layout, a frame writes only the
       // texels traced since the pass last ran (this frame's rows and those of frames that shaded nothing), and
@@ -865,7 +902,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
       // light); it reads back those pixels.
       if (!lightingHeld || !sameLayout) {
         const MomentWork whole = inputs.momentTexels > 0 ? wholeMoments() : MomentWork{};
-        shaded = s.lighting->shade(inputs, push, frame.gbuffer, visible, &traffic, &whole, readColor, readTerms);
+        shaded = s.lighting->shade(inputs, push, frame.gbuffer, visible, &traffic, &whole, readColor, readTerms, true);
         shadedWhole = true;
       } else {
         s.pendingTexels.insert(s.pendingTexels.end(), tracedTexels.begin(), tracedTexels.end());
@@ -875,6 +912,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
         changes.inputPixels = inputPixels;
         changes.allPixels = shadeAll;
         changes.storeInPlace = deviceStore;
+        changes.gbufferOnDevice = true;
         changes.moments = &momentJobs;
         changes.wholeMoments = wholeMoments;
         // Changed pixels are copied into a host copy that holds the rest; without one, read whole below.

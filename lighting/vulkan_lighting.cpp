@@ -9,6 +9,7 @@
 #include "deferred_lighting.spv.h"
 #include "deferred_lighting_variant.spv.h"
 #include "evsm_moments.spv.h"
+#include "gbuffer_resolve.spv.h"
 #include "lighting/lighting_variant.h"
 #include "lighting/shared/lighting_interface.h"
 #include "voxel/error.h"
@@ -43,6 +44,12 @@ struct LightingPipelines {
   vk::UniquePipelineLayout momentLayout;
   vk::UniquePipeline momentPipeline;
   vk::UniqueShaderModule momentModule;
+  // The G-buffer resolve: its own set (a camera trace's buffers, the tables, the G-buffer); made with the first
+  // resolve.
+  vk::UniqueDescriptorSetLayout resolveSetLayout;
+  vk::UniquePipelineLayout resolveLayout;
+  vk::UniquePipeline resolvePipeline;
+  vk::UniqueShaderModule resolveModule;
 
   // At most this many specialised variants are kept: a caller that keeps switching lights' filters recompiles,
   // it does not grow without bound.
@@ -94,6 +101,24 @@ struct LightingPipelines {
     return variants.back().second;
   }
 
+  void makeResolvePipeline() {
+    std::lock_guard lock(mutex);
+    if (resolvePipeline) return;
+    std::array<VkDescriptorSetLayoutBinding, gpu::VS_RESOLVE_BINDING_COUNT> bindings{};
+    for (std::uint32_t b = 0; b < gpu::VS_RESOLVE_BINDING_COUNT; ++b)
+      bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+    auto dl = vk::make<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
+    dl.bindingCount = std::uint32_t(bindings.size());
+    dl.pBindings = bindings.data();
+    VkDescriptorSetLayout made = VK_NULL_HANDLE;
+    vk::check(context.functions().vkCreateDescriptorSetLayout(context.device(), &dl, context.functions().allocator, &made),
+              "vkCreateDescriptorSetLayout");
+    resolveSetLayout = vk::UniqueDescriptorSetLayout(context.functions(), context.device(), made);
+    resolveModule = context.createShaderModule(gbuffer_resolve, sizeof gbuffer_resolve);
+    resolveLayout = context.createPipelineLayout(resolveSetLayout.get(), sizeof(gpu::ResolvePush));
+    resolvePipeline = context.createComputePipeline(resolveModule.get(), resolveLayout.get());
+  }
+
   void makeMomentPipeline() {
     std::lock_guard lock(mutex);
     if (momentPipeline) return;
@@ -119,6 +144,22 @@ struct VulkanLighting::Impl {
   std::array<vk::Buffer, gpu::VS_LIGHTING_BINDING_COUNT> buffers;
   // The view records' buffer as the shader reads it (VS_LIGHTING_BINDING_VIEWS), made again with the buffer.
   vk::UniqueBufferView viewTexels;
+  // A buffer was replaced outside sizeFor (the resolve's G-buffer): the set is written again before it is used.
+  bool descriptorsStale = false;
+
+  // The G-buffer resolve's set and tables (the last ones written, compared before writing again), and how many
+  // pixels' texels the G-buffer buffer holds whole, as the host's G-buffer has them (0: not whole, or unknown).
+  vk::UniqueDescriptorPool resolvePool;
+  VkDescriptorSet resolveSet = VK_NULL_HANDLE;
+  vk::Buffer resolveInstances, resolvePalette;
+  std::vector<gpu::GBufferInstance> heldInstances;
+  std::vector<glm::vec4> heldPalette;
+  bool tablesHeld = false;
+  std::size_t gbufferHeld = 0;
+  // The visibility receivers the resolve writes beside the G-buffer, and how many pixels' it holds whole, as
+  // vsReceiverOf the G-buffer the pass holds (0: not whole: a G-buffer written from the host since).
+  vk::Buffer receivers;
+  std::size_t receiversHeld = 0;
 
   explicit Impl(std::shared_ptr<VulkanContext> c) : owner(std::move(c)), context(*owner) {
     pipelines = std::static_pointer_cast<LightingPipelines>(context.shared("lighting pipelines", [&] {
@@ -164,6 +205,7 @@ struct VulkanLighting::Impl {
     const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
         (b == gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS ? VkBufferUsageFlags(VK_BUFFER_USAGE_TRANSFER_DST_BIT) : VkBufferUsageFlags(0));
     buffers[b] = context.createHostBuffer(need, usage);
+    if (b == gpu::VS_LIGHTING_BINDING_GBUFFER) gbufferHeld = 0;
     return true;
   }
 
@@ -228,7 +270,8 @@ struct VulkanLighting::Impl {
     sized(gpu::VS_LIGHTING_BINDING_EVSM_BORDER, 0);
     sized(gpu::VS_LIGHTING_BINDING_EVSM_SCRATCH, 0);
     sized(gpu::VS_LIGHTING_BINDING_EVSM_SCRATCH_NEGATIVE, 0);
-    if (replaced) writeDescriptors();
+    if (replaced || descriptorsStale) writeDescriptors();
+    descriptorsStale = false;
     return !replaced;
   }
 
@@ -276,7 +319,7 @@ struct VulkanLighting::Impl {
 
   ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                     std::span<const std::uint32_t> rayVisibility, LightingTraffic& traffic, bool storeInPlace,
-                    const MomentWork* moments, bool readColor, bool readTerms) {
+                    const MomentWork* moments, bool readColor, bool readTerms, bool gbufferOnDevice) {
     std::vector<std::uint32_t> clear;
     rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
     const std::size_t pixels = gbuffer.texels.size();
@@ -286,14 +329,14 @@ struct VulkanLighting::Impl {
     heldSizes.clear();
     // A kept store keeps its buffer: sizing for the same texel count replaces no buffer of it.
     sizeFor(inputs, pixels, rayVisibility.size());
-    fill(gpu::VS_LIGHTING_BINDING_GBUFFER, gbuffer.texels.data(), pixels * sizeof(gpu::GBufferTexel));
+    writeGBuffer(gbuffer, gbufferOnDevice, traffic);
     writeRecords(inputs, traffic);
     if (!storeInPlace) {
       fill(gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS, inputs.shadowTexels.data(), inputs.shadowTexels.size() * sizeof(float));
       traffic.uploaded += inputs.shadowTexels.size() * sizeof(float);
     }
     fill(gpu::VS_LIGHTING_BINDING_VISIBILITY, rayVisibility.data(), rayVisibility.size() * sizeof(std::uint32_t));
-    traffic.uploaded += pixels * sizeof(gpu::GBufferTexel) + rayVisibility.size() * sizeof(std::uint32_t);
+    traffic.uploaded += rayVisibility.size() * sizeof(std::uint32_t);
     if (inputs.momentTexels > 0 && (!moments || moments->vertical != inputs.momentTexels))
       throwBadInput("lighting: a frame with EVSM layers needs the work of its whole moment store");
     writeMomentWork(moments, traffic);
@@ -304,6 +347,138 @@ struct VulkanLighting::Impl {
     ShadeOutput out;
     readResults(readColor ? &out.color : nullptr, readTerms ? &out.shadowTerms : nullptr, traffic);
     return out;
+  }
+
+  // The host's G-buffer into the pass's buffer (sized), unless the device resolve left it there whole
+  // (resolveGBuffer, `onDevice`).
+  void writeGBuffer(const GBuffer& gbuffer, bool onDevice, LightingTraffic& traffic) {
+    const std::size_t pixels = gbuffer.texels.size();
+    if (onDevice && gbufferHeld == pixels) return;
+    fill(gpu::VS_LIGHTING_BINDING_GBUFFER, gbuffer.texels.data(), pixels * sizeof(gpu::GBufferTexel));
+    traffic.uploaded += pixels * sizeof(gpu::GBufferTexel);
+    gbufferHeld = pixels;
+    receiversHeld = 0;
+  }
+
+  void resolveGBuffer(const CameraTraceBuffers& trace, const GBufferTables& tables, const GBuffer& current,
+                      LightingTraffic& traffic) {
+    const std::size_t pixels = current.texels.size();
+    if (pixels == 0 || pixels != std::size_t(current.width) * std::size_t(current.height))
+      throwBadInput("lighting: the G-buffer to resolve into has " + std::to_string(pixels) + " texels for " +
+                    std::to_string(current.width) + "x" + std::to_string(current.height) + " pixels");
+    if (trace.rays == 0 || !trace.hits || !trace.camera)
+      throwBadInput("lighting: no camera trace's hits to resolve (VulkanTracer::lastCameraTrace right after traceCamera)");
+    if (trace.rays > pixels)
+      throwBadInput("lighting: " + std::to_string(trace.rays) + " hits to resolve into " + std::to_string(pixels) +
+                    " pixels");
+    const VkDeviceSize bytes = pixels * sizeof(gpu::GBufferTexel);
+    if (reserve(gpu::VS_LIGHTING_BINDING_GBUFFER, bytes)) {
+      // A new buffer: the lighting set must bind it, and the pass holds no frame in it.
+      descriptorsStale = true;
+      heldSizes.clear();
+    }
+    if (gbufferHeld != pixels && trace.rays != pixels) {
+      // The listed pixels would update a G-buffer the pass does not hold whole: the host's copy goes up whole.
+      std::memcpy(buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].mapped, current.texels.data(), bytes);
+      traffic.uploaded += bytes;
+      gbufferHeld = pixels;
+      receiversHeld = 0;
+      return;
+    }
+    const VkDeviceSize receiverBytes = pixels * sizeof(gpu::VisibilityReceiver);
+    if (!receivers.buffer || receivers.size < receiverBytes) {
+      receivers = vk::Buffer{};
+      receivers = context.createDeviceBuffer(receiverBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+      receiversHeld = 0;
+    }
+    // A listed trace updates receivers held whole; a whole one makes them whole.
+    const bool receiversWhole = trace.rays == pixels || receiversHeld == pixels;
+    gbufferHeld = 0;  // until the resolve has run
+    receiversHeld = 0;
+    pipelines->makeResolvePipeline();
+    if (!resolvePool) {
+      const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::VS_RESOLVE_BINDING_COUNT};
+      auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+      dp.maxSets = 1;
+      dp.poolSizeCount = 1;
+      dp.pPoolSizes = &size;
+      VkDescriptorPool pool = VK_NULL_HANDLE;
+      vk::check(context.functions().vkCreateDescriptorPool(context.device(), &dp, context.functions().allocator, &pool),
+                "vkCreateDescriptorPool");
+      resolvePool = vk::UniqueDescriptorPool(context.functions(), context.device(), pool);
+      const VkDescriptorSetLayout setLayout = pipelines->resolveSetLayout.get();
+      auto ai = vk::make<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+      ai.descriptorPool = pool;
+      ai.descriptorSetCount = 1;
+      ai.pSetLayouts = &setLayout;
+      vk::check(context.functions().vkAllocateDescriptorSets(context.device(), &ai, &resolveSet), "vkAllocateDescriptorSets");
+    }
+    // The tables change with the scene's instances and palettes only: written when they differ.
+    const bool sameTables = tablesHeld && heldInstances.size() == tables.instances.size() &&
+                            heldPalette.size() == tables.palette.size() &&
+                            std::memcmp(heldInstances.data(), tables.instances.data(),
+                                        tables.instances.size() * sizeof(gpu::GBufferInstance)) == 0 &&
+                            std::memcmp(heldPalette.data(), tables.palette.data(), tables.palette.size() * sizeof(glm::vec4)) == 0;
+    if (!sameTables) {
+      tablesHeld = false;
+      auto put = [&](vk::Buffer& b, const void* data, std::size_t size) {
+        const VkDeviceSize need = std::max<VkDeviceSize>(16, size);
+        if (!b.buffer || b.size < need) b = context.createHostBuffer(need, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+        if (size) std::memcpy(b.mapped, data, size);
+        traffic.uploaded += size;
+      };
+      put(resolveInstances, tables.instances.data(), tables.instances.size() * sizeof(gpu::GBufferInstance));
+      put(resolvePalette, tables.palette.data(), tables.palette.size() * sizeof(glm::vec4));
+      heldInstances = tables.instances;
+      heldPalette = tables.palette;
+      tablesHeld = true;
+    }
+    const std::array<VkDescriptorBufferInfo, gpu::VS_RESOLVE_BINDING_COUNT> infos{{
+        {trace.hits, 0, VK_WHOLE_SIZE},
+        {trace.camera, 0, VK_WHOLE_SIZE},
+        {resolveInstances.get(), 0, VK_WHOLE_SIZE},
+        {resolvePalette.get(), 0, VK_WHOLE_SIZE},
+        {buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].get(), 0, VK_WHOLE_SIZE},
+        {receivers.get(), 0, VK_WHOLE_SIZE},
+    }};
+    std::array<VkWriteDescriptorSet, gpu::VS_RESOLVE_BINDING_COUNT> writes{};
+    for (std::uint32_t b = 0; b < gpu::VS_RESOLVE_BINDING_COUNT; ++b) {
+      writes[b] = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+      writes[b].dstSet = resolveSet;
+      writes[b].dstBinding = b;
+      writes[b].descriptorCount = 1;
+      writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      writes[b].pBufferInfo = &infos[b];
+    }
+    context.functions().vkUpdateDescriptorSets(context.device(), std::uint32_t(writes.size()), writes.data(), 0, nullptr);
+    gpu::ResolvePush push{};
+    push.counts = glm::uvec4(std::uint32_t(trace.rays), std::uint32_t(tables.instances.size()), 0u, 0u);
+    const std::uint64_t groups = (trace.rays + gpu::VS_RESOLVE_GROUP_SIZE - 1) / gpu::VS_RESOLVE_GROUP_SIZE;
+    const std::uint32_t groupsX = std::uint32_t(std::min<std::uint64_t>(groups, context.info().maxWorkGroupCount[0]));
+    const std::uint32_t groupsY = std::uint32_t((groups + groupsX - 1) / groupsX);
+    const VkPipelineLayout layout = pipelines->resolveLayout.get();
+    context.submitAndWait([&](VkCommandBuffer cmd) {
+      // The host's writes (tables) and the trace's (hits), before the resolve reads them.
+      auto before = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+      before.srcAccessMask = VK_ACCESS_HOST_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+      before.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
+      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                                               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
+      context.functions().vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines->resolvePipeline.get());
+      context.functions().vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &resolveSet, 0, nullptr);
+      context.functions().vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+      context.functions().vkCmdDispatch(cmd, groupsX, groupsY, 1);
+      // The G-buffer to the lighting pass and to a host that reads it.
+      auto after = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+      after.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+      after.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT;
+      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                                               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                                               &after, 0, nullptr, 0, nullptr);
+    });
+    ++traffic.dispatches;
+    gbufferHeld = pixels;
+    if (receiversWhole) receiversHeld = pixels;
   }
 
   static void checkTexelRanges(std::span<const std::pair<std::size_t, std::size_t>> ranges, std::size_t texels) {
@@ -357,7 +532,7 @@ struct VulkanLighting::Impl {
         wholeWork = changes.wholeMoments();
       }
       ShadeOutput whole = shade(inputs, push, gbuffer, rayVisibility, traffic, changes.storeInPlace, &wholeWork,
-                                changes.readColor, changes.readTerms);
+                                changes.readColor, changes.readTerms, changes.gbufferOnDevice);
       if (changes.readColor) out.color.swap(whole.color);
       if (changes.readTerms) out.shadowTerms.swap(whole.shadowTerms);
       return;
@@ -378,9 +553,9 @@ struct VulkanLighting::Impl {
     chooseVariant(inputs, push);
     writeTexelRanges(inputs.shadowTexels, changes.texelRanges, traffic);
     if (changes.allPixels) {
-      fill(gpu::VS_LIGHTING_BINDING_GBUFFER, gbuffer.texels.data(), pixels * sizeof(gpu::GBufferTexel));
+      writeGBuffer(gbuffer, changes.gbufferOnDevice, traffic);
       fill(gpu::VS_LIGHTING_BINDING_VISIBILITY, rayVisibility.data(), rayVisibility.size() * sizeof(std::uint32_t));
-      traffic.uploaded += pixels * sizeof(gpu::GBufferTexel) + rayVisibility.size() * sizeof(std::uint32_t);
+      traffic.uploaded += rayVisibility.size() * sizeof(std::uint32_t);
       dispatch(push);
       heldSizes = sizes;
       readResults(changes.readColor ? &out.color : nullptr, changes.readTerms ? &out.shadowTerms : nullptr, traffic);
@@ -389,11 +564,16 @@ struct VulkanLighting::Impl {
     auto* g = static_cast<gpu::GBufferTexel*>(buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].mapped);
     auto* v = static_cast<std::uint32_t*>(buffers[gpu::VS_LIGHTING_BINDING_VISIBILITY].mapped);
     const std::size_t perPixel = rayVisibility.size() / std::max<std::size_t>(1, pixels);
+    // Texels the device resolved are in place already; where it holds no whole G-buffer, the host's goes up.
+    const bool gbufferInPlace = changes.gbufferOnDevice && gbufferHeld == pixels;
+    if (changes.gbufferOnDevice && !gbufferInPlace) writeGBuffer(gbuffer, false, traffic);
+    if (!changes.gbufferOnDevice && !changes.inputPixels.empty()) receiversHeld = 0;
     for (std::uint32_t p : changes.inputPixels) {
-      g[p] = gbuffer.texels[p];
+      if (!changes.gbufferOnDevice) g[p] = gbuffer.texels[p];
       for (std::size_t l = 0; l < perPixel; ++l) v[p * perPixel + l] = rayVisibility[p * perPixel + l];
     }
-    traffic.uploaded += changes.inputPixels.size() * (sizeof(gpu::GBufferTexel) + perPixel * sizeof(std::uint32_t));
+    traffic.uploaded += changes.inputPixels.size() *
+                        ((changes.gbufferOnDevice ? 0 : sizeof(gpu::GBufferTexel)) + perPixel * sizeof(std::uint32_t));
     // Only the listed pixels are shaded again: every other pixel's inputs are the last frame's, and so are the
     // colour and terms the buffers keep for it. A list of most of the frame costs more than the frame (one more
     // read per pixel, scattered), and one too long for a row of workgroups cannot be dispatched as one.
@@ -450,12 +630,13 @@ struct VulkanLighting::Impl {
       momentTexels += moments->vertical;
     }
     context.submitAndWait([&](VkCommandBuffer cmd) {
-      // The host's writes above (and the trace's, into the store), before the shaders read them.
+      // The host's writes above (and the trace's, into the store, and the resolve's, into the G-buffer), before
+      // the shaders read them.
       auto toShader = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
-      toShader.srcAccessMask = VK_ACCESS_HOST_WRITE_BIT;
+      toShader.srcAccessMask = VK_ACCESS_HOST_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT;
       toShader.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
-      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_HOST_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &toShader, 0,
-                           nullptr, 0, nullptr);
+      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                                               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &toShader, 0, nullptr, 0, nullptr);
       if (moments) recordMoments(cmd, *moments);
       if (shade) {
         context.functions().vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, shadePipeline->get());
@@ -497,6 +678,29 @@ struct VulkanLighting::Impl {
 };
 
 bool VulkanLighting::holdsStore(std::size_t texels) const { return impl_->holdsStore(texels); }
+
+void VulkanLighting::resolveGBuffer(const CameraTraceBuffers& trace, const GBufferTables& tables, const GBuffer& current,
+                                    LightingTraffic* traffic) {
+  LightingTraffic t;
+  impl_->resolveGBuffer(trace, tables, current, t);
+  if (traffic) {
+    traffic->uploaded += t.uploaded;
+    traffic->dispatches += t.dispatches;
+  }
+}
+
+DeviceReceivers VulkanLighting::receivers(std::size_t pixels) const {
+  if (pixels == 0 || impl_->receiversHeld != pixels) return {};
+  return {impl_->receivers.get(), pixels, {}};
+}
+
+void VulkanLighting::readGBuffer(GBuffer& out, LightingTraffic* traffic) const {
+  const std::size_t pixels = impl_->gbufferHeld;
+  if (pixels == 0 || pixels != out.texels.size())
+    throwBadInput("lighting: the pass holds no whole G-buffer of " + std::to_string(out.texels.size()) + " texels to read");
+  std::memcpy(out.texels.data(), impl_->buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].mapped, pixels * sizeof(gpu::GBufferTexel));
+  if (traffic) traffic->readBack += pixels * sizeof(gpu::GBufferTexel);
+}
 
 VkBuffer VulkanLighting::storeTarget(std::size_t texels) const {
   if (!impl_->holdsStore(texels))
@@ -579,12 +783,13 @@ int VulkanLighting::variantsCompiled() const {
 VulkanLighting::~VulkanLighting() = default;
 ShadeOutput VulkanLighting::shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                                   std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic,
-                                  const MomentWork* moments, bool readColor, bool readTerms) {
+                                  const MomentWork* moments, bool readColor, bool readTerms, bool gbufferOnDevice) {
   LightingTraffic t;
   impl_->shadedPixels = 0;
   impl_->momentTexels = 0;
   impl_->dispatches = 0;
-  ShadeOutput out = impl_->shade(inputs, push, gbuffer, rayVisibility, t, false, moments, readColor, readTerms);
+  ShadeOutput out =
+      impl_->shade(inputs, push, gbuffer, rayVisibility, t, false, moments, readColor, readTerms, gbufferOnDevice);
   t.pixelsShaded = impl_->shadedPixels;
   t.momentTexels = impl_->momentTexels;
   t.dispatches = impl_->dispatches;

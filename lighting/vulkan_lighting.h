@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "compute/vulkan/vulkan_context.h"
+#include "compute/vulkan/vulkan_tracer.h"
 #include "lighting/deferred.h"
 #include "lighting/evsm.h"
 #include "lighting/vulkan_shadows.h"
@@ -46,6 +47,9 @@ struct ShadeChanges {
   // whole colour, or terms); when false that part of `out` is left as it is.
   bool readColor = true;
   bool readTerms = true;
+  // The pass's G-buffer holds this frame's texels, resolved on the device (resolveGBuffer): none is written from
+  // `gbuffer` (where the pass holds no whole G-buffer of this size, `gbuffer` goes up whole).
+  bool gbufferOnDevice = false;
   // EVSM: the moment rectangles the changed texels touch (null: none), computed from the pass's store before it
   // shades; and the whole store's work, for a pass that holds no moments of this frame's size (its first, or
   // after another size): called only then.
@@ -80,9 +84,11 @@ class VulkanLighting {
   // on the device before the frame is shaded; required when inputs.momentTexels > 0 (inputs.moments is not
   // read). Throws vs::Error(BadInput) as shadeOnCpu does, vs::Error(Runtime) on device errors.
   // `readColor`, `readTerms`: whether the colours and terms are copied back (else the output's are empty).
+  // `gbufferOnDevice`: as ShadeChanges::gbufferOnDevice.
   ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                     std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic = nullptr,
-                    const MomentWork* moments = nullptr, bool readColor = true, bool readTerms = true);
+                    const MomentWork* moments = nullptr, bool readColor = true, bool readTerms = true,
+                    bool gbufferOnDevice = false);
 
   // The pass over a frame whose inputs differ from the last shade()'s or shadeChanged()'s only where `changes`
   // says: the buffers keep the last frame's inputs, so only the changed texel ranges and pixels (their G-buffer
@@ -97,6 +103,24 @@ class VulkanLighting {
   void shadeChanged(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                     std::span<const std::uint32_t> rayVisibility, const ShadeChanges& changes, ShadeOutput& out,
                     LightingTraffic* traffic = nullptr);
+
+  // Resolves a camera trace's hits on this pass's device (VulkanTracer::lastCameraTrace, called right after
+  // traceCamera, of the tracer on this device) into the pass's G-buffer, with vsResolveHit and the scene's tables
+  // (gbufferTables; written only when they differ from the last call's): the frame's G-buffer reaches the
+  // lighting pass without crossing from the host, and shade() or shadeChanged() with gbufferOnDevice write none.
+  // A trace of listed pixels updates those texels; where the pass holds no whole G-buffer of this size for them
+  // to update, `current` (the host's G-buffer after this trace, the same bits: resolveGBuffer of the same hits)
+  // goes up whole instead. Throws vs::Error(BadInput) when the trace holds no hits, more than the frame's
+  // pixels, or `current` is not width x height texels; vs::Error(Runtime) on device errors.
+  void resolveGBuffer(const CameraTraceBuffers& trace, const GBufferTables& tables, const GBuffer& current,
+                      LightingTraffic* traffic = nullptr);
+  // The visibility receivers of the G-buffer the pass holds (vsReceiverOf each texel), which the resolve writes
+  // beside it, for VulkanTracer::traceVisibility to read in place (set `pixels` of the result to take some);
+  // an empty buffer where they are not whole for `pixels` pixels (a G-buffer written from the host since).
+  DeviceReceivers receivers(std::size_t pixels) const;
+  // Copies the G-buffer the pass holds (resolved or written) into `out`, whose size must be the held one's (else
+  // vs::Error(BadInput)).
+  void readGBuffer(GBuffer& out, LightingTraffic* traffic = nullptr) const;
 
   // Whether the pass's layer store holds a whole store of `texels` texels from the last completed pass (and
   // whatever was traced into it since): a frame may then trace into it in place (storeTarget) and shade with

@@ -459,7 +459,7 @@ TEST(Embedding, ADeviceLackingWhatTheLibraryNeedsIsRefusedNamingEachThing) {
   for (const char* missing :
        {"Vulkan 1.1 on the instance (VulkanHostDevice::instanceApiVersion is 1.0)",
         "Vulkan 1.1 on the device (it reports 1.0)", "VK_FORMAT_R32_SFLOAT as an optimal-tiling storage image",
-        "maxPerStageDescriptorStorageBuffers >= 29 (the device has 4)", "the entry point vkCmdDispatch"})
+        "maxPerStageDescriptorStorageBuffers >= 30 (the device has 4)", "the entry point vkCmdDispatch"})
     EXPECT_NE(refusal.find(missing), std::string::npos) << missing << "\n" << refusal;
   EXPECT_EQ(refusal.find("shaderFloat64"), std::string::npos) << refusal;
   dispatch.reset();

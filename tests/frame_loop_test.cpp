@@ -77,7 +77,9 @@ std::size_t addActor(Scene& scene) {
 // How many bytes of a frame differ from a new renderer's, per part.
 struct Differences {
   std::size_t layers = 0, gbuffer = 0, color = 0, terms = 0, moments = 0;
-  bool any() const { return layers + gbuffer + color + terms + moments > 0; }
+  // Vulkan: whether the G-buffer the lighting pass reads on the device, resolved there, differs from the frame's.
+  std::size_t deviceGBuffer = 0;
+  bool any() const { return layers + gbuffer + color + terms + moments + deviceGBuffer > 0; }
 };
 
 Differences compareWithFresh(const Scene& scene, Tracer& freshTracer, const FrameRenderer& kept,
@@ -114,6 +116,7 @@ Differences compareWithFresh(const Scene& scene, Tracer& freshTracer, const Fram
                   k, k % 160, k / 160, x.info.x, x.info.w, x.position.x, x.position.y, x.position.z, x.position.w,
                   y.info.x, y.info.w, y.position.x, y.position.y, y.position.z, y.position.w);
     }
+  if (freshTracer.vulkan()) d.deviceGBuffer = bytesDiffer(kept.deviceGBuffer().texels, frame.gbuffer.texels);
   d.color = bytesDiffer(frame.color, truth.color);
   d.terms = bytesDiffer(frame.shadowTerms, truth.shadowTerms);
   // EVSM moments: the kept ones, updated only around what was traced, against a new renderer's whole pass.
@@ -321,7 +324,7 @@ int playAndCompare(const std::string& backend, unsigned seed, int frames, double
       ++differing;
       if (margin >= 1.0)
         ADD_FAILURE() << backend << " frame " << f << " (" << game.last << "): " << d.layers << " layers, "
-                      << d.gbuffer << " G-buffer, " << d.color << " colour, " << d.terms << " terms, " << d.moments
+                      << d.gbuffer << " G-buffer, " << d.deviceGBuffer << " device G-buffer, " << d.color << " colour, " << d.terms << " terms, " << d.moments
                       << " moment layers differ";
       if (stopAtFirst) break;
     }

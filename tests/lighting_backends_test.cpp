@@ -16,6 +16,7 @@
 #include "lighting/renderer.h"
 #include "lighting/scene.h"
 #include "lighting/vulkan_lighting.h"
+#include "support/demo_frames.h"
 #include "support/lighting_scenes.h"
 #include "support/test_paths.h"
 #include "voxel/demo_world.h"
@@ -74,6 +75,91 @@ TEST(LightingBackends, VulkanMatchesTheCpuPass) {
                 host.shadowTerms.size());
   }
   EXPECT_TRUE(vulkan->vulkan()->validationMessages().empty());
+}
+
+// The G-buffer resolved on the device (VulkanLighting::resolveGBuffer) equals the host's resolve of the same
+// hits bit for bit, whole and for listed pixels, and the visibility rays made from the receivers it leaves on
+// the device answer as those made from the host's receivers; bad device receivers are refused.
+TEST(LightingBackends, TheDeviceResolvesTheGBufferAndItsReceiversAsTheHost) {
+  VulkanOptions options;
+  options.validation = true;
+  std::unique_ptr<Tracer> tracer = makeVulkanTracer(options);  // no device: fails here, loudly
+  VulkanTracer& vulkan = *tracer->vulkan();
+  const Scene scene = Scene::load(cityScene("device_resolve", {{"contact_shadow", 1.5}}, {{"width", 200}, {"height", 150}}));
+  tracer->setScene(scene.data());
+  const CameraFrame camera = cameraFrame(*scene.desc().camera);
+  const std::size_t pixels = std::size_t(camera.width) * std::size_t(camera.height);
+  VulkanLighting lighting(vulkan.sharedContext());
+  EXPECT_EQ(lighting.receivers(pixels).buffer, VK_NULL_HANDLE) << "no receivers before a resolve";
+
+  std::vector<gpu::RayHit> hits(pixels);
+  tracer->traceCamera(cameraRaysOf(camera), {}, hits);
+  GBuffer host;
+  resolveGBuffer(scene, camera, hits, host);
+  LightingTraffic traffic;
+  lighting.resolveGBuffer(vulkan.lastCameraTrace(), gbufferTables(scene), host, &traffic);
+  EXPECT_EQ(traffic.dispatches, 1);
+  GBuffer device = host;
+  std::fill(device.texels.begin(), device.texels.end(), gpu::GBufferTexel{});
+  lighting.readGBuffer(device);
+  EXPECT_TRUE(test::sameBytes(device.texels, host.texels));
+  std::size_t hit = 0;
+  for (const gpu::GBufferTexel& g : host.texels) hit += g.info.w;
+  EXPECT_GT(hit, pixels / 4);
+
+  // A camera moved a little: the listed pixels (every third one) resolved again into the held G-buffer.
+  CameraFrame moved = camera;
+  moved.position += glm::dvec3(0.37, 0.11, -0.23);
+  std::vector<std::uint32_t> listed;
+  for (std::uint32_t p = 0; p < pixels; p += 3) listed.push_back(p);
+  std::vector<gpu::RayHit> listedHits(listed.size());
+  tracer->traceCamera(cameraRaysOf(moved), listed, listedHits);
+  GBuffer mixed = host;
+  resolveGBufferPixels(scene, moved, listedHits, listed, mixed);
+  traffic = {};
+  lighting.resolveGBuffer(vulkan.lastCameraTrace(), gbufferTables(scene), mixed, &traffic);
+  EXPECT_EQ(traffic.uploaded, 0u) << "the tables were already on the device";
+  lighting.readGBuffer(device);
+  EXPECT_TRUE(test::sameBytes(device.texels, mixed.texels));
+
+  // Visibility rays from the device's receivers and from the host's, toward the sun (a contact length) and a
+  // point above the city.
+  std::vector<gpu::ShadeLight> lights(2);
+  lights[0].info.x = gpu::VS_LIGHT_DIRECTIONAL;
+  lights[0].direction = glm::vec4(glm::normalize(glm::vec3(-0.4f, -1.0f, -0.3f)), 0.0f);
+  lights[1].info.x = gpu::VS_LIGHT_POINT;
+  lights[1].position = glm::vec4(30.0f, 60.0f, 30.0f, 200.0f);
+  const std::vector<float> lengths{1.5f, -1.0f};
+  const VisibilitySetup setup = visibilitySetup(lights, lengths, scene.worldBounds());
+  for (const bool whole : {true, false}) {
+    std::vector<std::uint32_t> some;
+    if (!whole)
+      for (std::uint32_t p = 1; p < pixels; p += 5) some.push_back(p);
+    std::vector<gpu::VisibilityReceiver> receivers;
+    visibilityReceivers(mixed, some, receivers);
+    std::vector<std::uint32_t> fromHost(receivers.size() * lights.size()), fromDevice(fromHost.size(), 7u);
+    tracer->traceVisibility(setup.frame, setup.lights, receivers, fromHost);
+    DeviceReceivers onDevice = lighting.receivers(pixels);
+    ASSERT_NE(onDevice.buffer, VK_NULL_HANDLE);
+    onDevice.pixels = some;
+    vulkan.traceVisibility(setup.frame, setup.lights, onDevice, fromDevice);
+    EXPECT_EQ(fromDevice, fromHost) << (whole ? "every pixel" : "listed pixels");
+    EXPECT_GT(std::count(fromHost.begin(), fromHost.end(), 1u), 100) << "some rays are blocked";
+    EXPECT_GT(std::count(fromHost.begin(), fromHost.end(), 0u), 100) << "some rays are clear";
+  }
+
+  DeviceReceivers bad = lighting.receivers(pixels);
+  const std::vector<std::uint32_t> outside{std::uint32_t(pixels)};
+  bad.pixels = outside;
+  std::vector<std::uint32_t> answers(lights.size());
+  EXPECT_THROW(vulkan.traceVisibility(setup.frame, setup.lights, bad, answers), Error);
+  bad.pixels = {};
+  bad.buffer = VK_NULL_HANDLE;
+  answers.resize(pixels * lights.size());
+  EXPECT_THROW(vulkan.traceVisibility(setup.frame, setup.lights, bad, answers), Error);
+  // A trace that left no camera hits, and a G-buffer of the wrong size, are refused.
+  EXPECT_THROW(lighting.resolveGBuffer(vulkan.lastCameraTrace(), gbufferTables(scene), mixed), Error);
+  EXPECT_TRUE(vulkan.validationMessages().empty()) << vulkan.validationMessages().front();
 }
 
 namespace {

@@ -91,7 +91,8 @@ FrameSizes frameSizes(const Scene& scene, const RenderOptions& render) {
 // themselves are made where they are traced, in slices on the CPU); the lit image
 // (16 B a pixel) and shadow terms (4 B a pixel and light); the file's pixels; and on Vulkan the host-visible
 // buffers the tracer and the lighting pass keep until the end (on a CPU device such as lavapipe, whose device
-// memory is host memory, the shadow image and the driver's own working memory too).
+// memory is host memory, the shadow image, the device's visibility receivers and the driver's own working
+// memory too).
 std::uint64_t renderBytesNeeded(const FrameSizes& f, bool exr, const VulkanDeviceInfo* device) {
   const std::uint64_t layers = f.layerBytes, pixels = f.pixels;
   const std::uint64_t perLight = pixels * f.lights * sizeof(float);
@@ -105,9 +106,12 @@ std::uint64_t renderBytesNeeded(const FrameSizes& f, bool exr, const VulkanDevic
   if (device) {
     const bool cpuDevice = device->type == VulkanDeviceType::Cpu;
     vTrace = layers + (cpuDevice ? f.maxW * f.maxH * f.views * sizeof(float) + kCpuVulkanDeviceWorkingBytes : 0);
-    vPrimary = pixels * (48 + 32);
-    vVisibility = receivers + f.rays * 4;
-    vShade = gbuffer + layers + 2 * perLight + pixels * 16;
+    // The camera trace's buffers, then the lighting pass's G-buffer and the receivers the device resolve writes
+    // beside it (device-local: host memory only on a CPU device).
+    vPrimary = pixels * (48 + 32) + gbuffer + (cpuDevice ? pixels * 32 : 0);
+    // The visibility trace's record, lights and listed pixels (at most one a pixel), and its answers.
+    vVisibility = pixels * 4 + f.rays * 4;
+    vShade = layers + 2 * perLight + pixels * 16;
   }
   const std::uint64_t stages[] = {
       layers + vTrace,

@@ -51,11 +51,14 @@ layout(std430, set = 0, binding = VS_BINDING_CAMERA) readonly buffer CameraBuffe
   uint cameraPixels[];
 };
 // Visibility dispatches: the record, then its counts.x lights and counts.y receivers, two vec4 each
-// (VisibilityLight, VisibilityReceiver).
+// (VisibilityLight, VisibilityReceiver); or, when the receivers are the device's (counts.z = 1), the lights and
+// then, where counts.w = 1, the receivers' pixels, read through a second view of the same buffer.
 layout(std430, set = 0, binding = VS_BINDING_VISIBILITY) readonly buffer VisibilityBuffer {
   VisibilityRays visibility;
   vec4 visibilityEntries[];
 };
+layout(std430, set = 0, binding = VS_BINDING_VISIBILITY) readonly buffer VisibilityWordBuffer { uint visibilityWords[]; };
+layout(std430, set = 0, binding = VS_BINDING_RECEIVERS) readonly buffer ReceiverBuffer { VisibilityReceiver deviceReceivers[]; };
 // Records as RGBA32UI texels (the VS_*_TEXELS of the layout headers), instance indices and node escapes
 // (Bvh::nodeEscapes) as R32UI.
 layout(set = 0, binding = VS_BINDING_OBJECTS) uniform usamplerBuffer objectTexels;
@@ -177,9 +180,16 @@ void main() {
     uint lightIndex = index / receiverCount;
     uint receiverIndex = index % receiverCount;
     uint l = 2u * lightIndex;
-    uint r = 2u * (lightCount + receiverIndex);
     VisibilityLight light = VisibilityLight(visibilityEntries[l], visibilityEntries[l + 1u]);
-    VisibilityReceiver receiver = VisibilityReceiver(visibilityEntries[r], visibilityEntries[r + 1u]);
+    VisibilityReceiver receiver;
+    if (visibility.counts.z != 0u) {
+      // The words after the record (12) and the lights (8 each).
+      uint pixel = visibility.counts.w != 0u ? visibilityWords[12u + 8u * lightCount + receiverIndex] : receiverIndex;
+      receiver = deviceReceivers[pixel];
+    } else {
+      uint r = 2u * (lightCount + receiverIndex);
+      receiver = VisibilityReceiver(visibilityEntries[r], visibilityEntries[r + 1u]);
+    }
     occluded[receiverIndex * lightCount + lightIndex] =
         vsAnyHit(vsTraceRayToWorld(vsVisibilityRay(visibility, light, receiver))) ? 1u : 0u;
     return;

@@ -39,10 +39,14 @@ const uint VS_BINDING_HITS = 15u;             // storage buffer of RayHit (close
 const uint VS_BINDING_OCCLUDED = 16u;         // storage buffer of uint (any-hit dispatches)
 const uint VS_BINDING_CAMERA = 17u;           // storage buffer: a CameraRays record, then the listed pixels
 const uint VS_BINDING_VISIBILITY = 18u;       // storage buffer: a VisibilityRays record, its lights, its receivers
-const uint VS_BINDING_COUNT = 19u;
-// Storage buffers the shader declares: the split arrays' chunks, the three ray buffers, the camera's and the
-// visibility rays'. Within the 32 of lavapipe's maxPerStageDescriptorStorageBuffers.
-const uint VS_STORAGE_BUFFER_COUNT = VS_SPLIT_ARRAY_COUNT * uint(VS_MAX_CHUNKS) + 5u;
+                                              // or listed pixels
+// storage buffer of VisibilityReceiver, one per pixel, made on the device (visibility dispatches whose record's
+// counts.z is 1: VulkanTracer::traceVisibility with DeviceReceivers)
+const uint VS_BINDING_RECEIVERS = 19u;
+const uint VS_BINDING_COUNT = 20u;
+// Storage buffers the shader declares: the split arrays' chunks, the three ray buffers, the camera's, the
+// visibility rays' and the device's receivers. Within the 32 of lavapipe's maxPerStageDescriptorStorageBuffers.
+const uint VS_STORAGE_BUFFER_COUNT = VS_SPLIT_ARRAY_COUNT * uint(VS_MAX_CHUNKS) + 6u;
 
 // Specialization-constant ids (see the shader for what each removes).
 const int VS_SPEC_SPLIT_BINDINGS = 0;   // bool

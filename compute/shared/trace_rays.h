@@ -45,7 +45,9 @@ struct RayHit {
 struct VisibilityRays {
   vec4 boundsMin;  // xyz: the world box out of which rays toward a direction end; w: 0
   vec4 boundsMax;  // xyz; w: 0
-  uvec4 counts;    // x: lights, y: receivers; zw: 0
+  uvec4 counts;    // x: lights, y: receivers; z: 0 when the receivers follow the lights in the trace's buffer, 1
+                   // when they are the device's (one per pixel, VS_BINDING_RECEIVERS); w: with z = 1, 1 when the
+                   // buffer lists the receivers' pixels after the lights (else receiver k is pixel k)
 };
 
 const float VS_VISIBILITY_TOWARD_POINT = 0.0f;      // the ray ends at the light's position

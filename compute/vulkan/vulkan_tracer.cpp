@@ -33,8 +33,8 @@ constexpr std::uint32_t kBoxCodesBinding = gpu::VS_BINDING_BOX_TABLE, kEscapesBi
 constexpr const char* kSplitNames[kSplitArrayCount] = {"regionTable", "regions", "sectors", "bricks", "occupancy",
                                                        "payload"};
 // The ray buffers, the camera's and the visibility rays', bound as single storage buffers.
-constexpr std::uint32_t kRayBindings[5] = {gpu::VS_BINDING_RAYS, gpu::VS_BINDING_HITS, gpu::VS_BINDING_OCCLUDED,
-                                           gpu::VS_BINDING_CAMERA, gpu::VS_BINDING_VISIBILITY};
+constexpr std::uint32_t kRayBindings[6] = {gpu::VS_BINDING_RAYS,   gpu::VS_BINDING_HITS,       gpu::VS_BINDING_OCCLUDED,
+                                           gpu::VS_BINDING_CAMERA, gpu::VS_BINDING_VISIBILITY, gpu::VS_BINDING_RECEIVERS};
 bool isRayBinding(std::uint32_t b) {
   return std::find(std::begin(kRayBindings), std::end(kRayBindings), b) != std::end(kRayBindings);
 }
@@ -177,6 +177,8 @@ struct VulkanTracer::Impl {
   // dispatches: the camera record and the listed pixels in; visibility dispatches: the record, lights and
   // receivers in.
   vk::Buffer rayBuffer, hitBuffer, occludedBuffer, cameraBuffer, visibilityBuffer;
+  std::uint64_t cameraTraceRays = 0;  // the rays of the camera trace whose results hitBuffer holds (lastCameraTrace)
+  VkBuffer deviceReceivers = VK_NULL_HANDLE;  // bound at VS_BINDING_RECEIVERS for the call under way (else the placeholder)
 
   explicit Impl(const VulkanOptions& o)
       : options(o),
@@ -725,8 +727,15 @@ struct VulkanTracer::Impl {
       writes.push_back(w);
     }
     const vk::Buffer* rayBuffers[5] = {&rayBuffer, &hitBuffer, &occludedBuffer, &cameraBuffer, &visibilityBuffer};
-    for (int r = 0; r < 5; ++r) {
-      VkDescriptorBufferInfo* info = bufferInfo(rayBuffers[r]->buffer ? rayBuffers[r] : nullptr);
+    for (int r = 0; r < 6; ++r) {
+      VkDescriptorBufferInfo* info = nullptr;
+      if (r == 5) {
+        // The device's receivers of this call, or the placeholder.
+        infos.push_back({deviceReceivers ? deviceReceivers : placeholder.get(), 0, VK_WHOLE_SIZE});
+        info = &infos.back();
+      } else {
+        info = bufferInfo(rayBuffers[r]->buffer ? rayBuffers[r] : nullptr);
+      }
       auto rw = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
       rw.dstSet = descriptorSet;
       rw.dstBinding = kRayBindings[r];
@@ -1045,11 +1054,13 @@ struct VulkanTracer::Impl {
         ++stats.dispatches;
       }
       if (queryPool) context.functions().vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queryPool.get(), 1);
+      // The results to the host, and to a later pass on this device that reads them in place (lastCameraTrace).
       auto toHost = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
       toHost.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-      toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0,
-                           nullptr, 0, nullptr);
+      toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT | VK_ACCESS_SHADER_READ_BIT;
+      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                                               VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1,
+                                               &toHost, 0, nullptr, 0, nullptr);
     });
     std::memcpy(out, results.mapped, outBytes);
     if (queryPool) stats.gpuMs = timestampMs(1)[0];
@@ -1079,34 +1090,41 @@ VulkanTracer::VulkanTracer(const VulkanOptions& options) : impl_(std::make_uniqu
 VulkanTracer::~VulkanTracer() = default;
 void VulkanTracer::upload(const SceneData& scene) {
   CallInProgress call(impl_->busy, "upload");
+  impl_->cameraTraceRays = 0;
   impl_->upload(scene);
 }
 bool VulkanTracer::boxTableInUse() const { return impl_->boxTableUploaded; }
 void VulkanTracer::upload(const SceneArrays& scene) {
   CallInProgress call(impl_->busy, "upload");
+  impl_->cameraTraceRays = 0;
   impl_->uploadArrays(scene);
 }
 void VulkanTracer::update(const SceneData& scene, const SceneDelta& delta) {
   CallInProgress call(impl_->busy, "update");
+  impl_->cameraTraceRays = 0;
   impl_->update(scene, delta);
 }
 std::uint64_t VulkanTracer::bytesUploaded() const { return impl_->uploadedBytes; }
 int VulkanTracer::bufferGrowths() const { return impl_->growths; }
 void VulkanTracer::uploadInstances(const SceneData& scene) {
   CallInProgress call(impl_->busy, "uploadInstances");
+  impl_->cameraTraceRays = 0;
   impl_->uploadInstances(scene);
 }
 TraceStats VulkanTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) {
   CallInProgress call(impl_->busy, "trace");
+  impl_->cameraTraceRays = 0;
   return impl_->trace(views, layers);
 }
 TraceStats VulkanTracer::traceInto(std::span<const gpu::TraceView> views, const DeviceTexelTarget& target) {
   CallInProgress call(impl_->busy, "traceInto");
+  impl_->cameraTraceRays = 0;
   std::vector<ShadowLayer> none;
   return impl_->trace(views, none, &target);
 }
 TraceStats VulkanTracer::traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits) {
   CallInProgress call(impl_->busy, "traceClosest");
+  impl_->cameraTraceRays = 0;
   if (hits.size() != rays.size())
     throwBadInput("traceClosest: " + std::to_string(hits.size()) + " hit records for " + std::to_string(rays.size()) +
                   " rays");
@@ -1114,6 +1132,7 @@ TraceStats VulkanTracer::traceClosest(std::span<const gpu::TraceRay> rays, std::
 }
 TraceStats VulkanTracer::traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded) {
   CallInProgress call(impl_->busy, "traceAny");
+  impl_->cameraTraceRays = 0;
   if (occluded.size() != rays.size())
     throwBadInput("traceAny: " + std::to_string(occluded.size()) + " results for " + std::to_string(rays.size()) +
                   " rays");
@@ -1122,15 +1141,59 @@ TraceStats VulkanTracer::traceAny(std::span<const gpu::TraceRay> rays, std::span
 TraceStats VulkanTracer::traceCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
                                      std::span<gpu::RayHit> hits) {
   CallInProgress call(impl_->busy, "traceCamera");
+  impl_->cameraTraceRays = 0;
   const std::uint64_t count = checkCameraTrace(camera, pixels, hits.size());
   gpu::CameraRays record = camera;
   record.size.z = static_cast<std::uint32_t>(pixels.size());
-  return impl_->traceRays(gpu::RayKind::Camera, {}, hits.data(), sizeof(gpu::RayHit), &record, pixels, count);
+  const TraceStats stats =
+      impl_->traceRays(gpu::RayKind::Camera, {}, hits.data(), sizeof(gpu::RayHit), &record, pixels, count);
+  impl_->cameraTraceRays = count;
+  return stats;
+}
+TraceStats VulkanTracer::traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
+                                         const DeviceReceivers& receivers, std::span<std::uint32_t> occluded) {
+  CallInProgress call(impl_->busy, "traceVisibility");
+  impl_->cameraTraceRays = 0;
+  checkVisibilityTrace(frame, lights, {}, 0);  // the record and the lights
+  if (receivers.buffer == VK_NULL_HANDLE) throwBadInput("traceVisibility: DeviceReceivers.buffer: none");
+  const std::uint64_t taken = receivers.pixels.empty() ? receivers.pixelCount : receivers.pixels.size();
+  const std::uint64_t count = taken * lights.size();
+  if (count > std::numeric_limits<std::uint32_t>::max() || receivers.pixelCount > std::numeric_limits<std::uint32_t>::max())
+    throwBadInput("traceVisibility: " + std::to_string(taken) + " receivers x " + std::to_string(lights.size()) +
+                  " lights: more than 2^32 rays in one call");
+  if (occluded.size() != count)
+    throwBadInput("traceVisibility: " + std::to_string(occluded.size()) + " answers for " + std::to_string(count) +
+                  " rays (receivers x lights)");
+  for (std::uint32_t p : receivers.pixels)
+    if (p >= receivers.pixelCount)
+      throwBadInput("traceVisibility: DeviceReceivers.pixels: pixel " + std::to_string(p) + " of " +
+                    std::to_string(receivers.pixelCount));
+  gpu::VisibilityRays record = frame;
+  record.counts = glm::uvec4(std::uint32_t(lights.size()), std::uint32_t(taken), 1u, receivers.pixels.empty() ? 0u : 1u);
+  // The record, the lights and the listed pixels, in the order the shader reads them.
+  auto write = [&](std::byte* to) {
+    std::memcpy(to, &record, sizeof record);
+    std::memcpy(to + sizeof record, lights.data(), lights.size_bytes());
+    if (!receivers.pixels.empty())
+      std::memcpy(to + sizeof record + lights.size_bytes(), receivers.pixels.data(), receivers.pixels.size_bytes());
+  };
+  impl_->deviceReceivers = receivers.buffer;
+  struct Unbind {
+    VkBuffer& b;
+    ~Unbind() { b = VK_NULL_HANDLE; }
+  } unbind{impl_->deviceReceivers};
+  return impl_->traceRays(gpu::RayKind::Visibility, {}, occluded.data(), sizeof(std::uint32_t), nullptr, {}, count,
+                          sizeof record + lights.size_bytes() + receivers.pixels.size_bytes(), write);
+}
+CameraTraceBuffers VulkanTracer::lastCameraTrace() const {
+  if (impl_->cameraTraceRays == 0) return {};
+  return {impl_->hitBuffer.get(), impl_->cameraBuffer.get(), impl_->cameraTraceRays};
 }
 TraceStats VulkanTracer::traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
                                          std::span<const gpu::VisibilityReceiver> receivers,
                                          std::span<std::uint32_t> occluded) {
   CallInProgress call(impl_->busy, "traceVisibility");
+  impl_->cameraTraceRays = 0;
   const std::uint64_t count = checkVisibilityTrace(frame, lights, receivers, occluded.size());
   gpu::VisibilityRays record = frame;
   record.counts = glm::uvec4(std::uint32_t(lights.size()), std::uint32_t(receivers.size()), 0u, 0u);

@@ -92,6 +92,24 @@ struct DeviceTexelTarget {
   std::span<const DeviceTexelPlace> places;
 };
 
+// The device buffers a camera trace left its results in (VulkanTracer::lastCameraTrace): the hit records, one
+// per ray in call order, and the camera buffer (the CameraRays record, then its listed pixels), as
+// compute/shaders/shadow_trace.comp binds them (storage buffers).
+struct CameraTraceBuffers {
+  VkBuffer hits = VK_NULL_HANDLE;
+  VkBuffer camera = VK_NULL_HANDLE;
+  std::uint64_t rays = 0;  // 0: no camera trace's results are held
+};
+
+// Visibility receivers that a pass on the tracer's device made, one VisibilityReceiver per pixel in a storage
+// buffer (lighting/shaders/gbuffer_resolve.comp), and the pixels whose receivers a trace takes (row-major, each
+// below pixelCount; empty: every pixel, in order).
+struct DeviceReceivers {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  std::uint64_t pixelCount = 0;
+  std::span<const std::uint32_t> pixels;
+};
+
 class VulkanTracer {
  public:
   // Creates the context (device choice, validation) and the trace pipeline through the disk cache.
@@ -155,6 +173,16 @@ class VulkanTracer {
   // Tracer::traceCamera: the rays made on the device from the record; only it and the pixel list go up.
   TraceStats traceCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
                          std::span<gpu::RayHit> hits);
+  // The same rays from receivers already on the device: only the record, the lights and the pixel list go up.
+  // occluded[k * lights + l] answers the k-th receiver taken (pixels[k], or pixel k) toward light l. Throws
+  // vs::Error(BadInput) as traceVisibility does, and when the buffer is missing or a pixel is not below
+  // pixelCount. Precondition: the buffer holds pixelCount receivers, their writes visible to shaders.
+  TraceStats traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
+                             const DeviceReceivers& receivers, std::span<std::uint32_t> occluded);
+  // Where the last traceCamera's hits and camera record are on the device, for a pass on this device that reads
+  // them in place (the G-buffer resolve); valid until the tracer's next call that traces or uploads (rays 0
+  // then, and when the last trace was not a camera trace). The shader's writes are visible to later shaders.
+  CameraTraceBuffers lastCameraTrace() const;
   // Tracer::traceVisibility: the rays made on the device; only the record, the lights and the receivers go up.
   TraceStats traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
                              std::span<const gpu::VisibilityReceiver> receivers, std::span<std::uint32_t> occluded);

@@ -53,6 +53,19 @@ struct GBufferTexel {
   uvec4 info;     // x: instance index; y: palette index; z: entry face (VS_FACE_*); w: 1 on a hit
 };
 
+// What the G-buffer resolve (lighting/shared/gbuffer_resolve.h) needs of an instance: its six faces' unit world
+// normals (VS_FACE_* order; w of each: the voxel's world size), and where its object's palette starts in the
+// frame's palette array and how many colours it has.
+struct GBufferInstance {
+  vec4 faceNormals[6];
+  uvec4 palette;  // x: first colour; y: colour count; zw: 0
+};
+
+// The device resolve's push block (lighting/shaders/gbuffer_resolve.comp).
+struct ResolvePush {
+  uvec4 counts;  // x: hits to resolve; y: instance records; zw: 0
+};
+
 // A light as the pass shades it.
 struct ShadeLight {
   vec4 color;      // rgb: colour x intensity; w: 0
@@ -145,6 +158,9 @@ VS_LAYOUT_CHECK(GBufferTexel, 64);
 VS_OFFSET_CHECK(GBufferTexel, normal, 16);
 VS_OFFSET_CHECK(GBufferTexel, albedo, 32);
 VS_OFFSET_CHECK(GBufferTexel, info, 48);
+VS_LAYOUT_CHECK(GBufferInstance, 112);
+VS_OFFSET_CHECK(GBufferInstance, palette, 96);
+VS_LAYOUT_CHECK(ResolvePush, 16);
 VS_LAYOUT_CHECK(ShadeLight, 112);
 VS_OFFSET_CHECK(ShadeLight, evsm, 96);
 VS_LAYOUT_CHECK(EvsmView, 48);
