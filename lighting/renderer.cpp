@@ -797,7 +797,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
       const std::size_t taken = pixels.empty() ? pixelCount : pixels.size();
       const std::size_t traced = rayLights.size();
       answers.resize(taken * traced);
-      DeviceReceivers onDevice = vulkan && s.lighting ? s.lighting->receivers(pixelCount) : DeviceReceivers{};
+      DeviceReceivers onDevice = vulkan ? lightingPass().receivers(pixelCount) : DeviceReceivers{};
       TraceStats ts;
       if (onDevice.buffer) {
         onDevice.pixels = pixels;
@@ -816,6 +816,17 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
       });
       stats.visibilityRays = answers.size();
       receiversTraced = taken;
+      if (vulkan) {
+        // The same spread on the device, from the answers the trace left there, into the lighting pass's
+        // answers, which it then reads in place.
+        std::vector<int> slots(lightCount, -1);
+        for (std::size_t j = 0; j < traced; ++j) slots[rayLights[j]] = int(j);
+        LightingTraffic traffic;
+        lightingPass().spreadVisibility(onDevice.buffer ? vulkan->lastVisibilityTrace() : VisibilityTraceBuffers{},
+                                        slots, pixelCount, visible, &traffic);
+        stats.bytesUploaded += traffic.uploaded;
+        stats.dispatches += traffic.dispatches;
+      }
     };
     if (allPixels || raysChanged) {
       visible.swap(s.visible);
@@ -902,7 +913,8 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
       // light); it reads back those pixels.
       if (!lightingHeld || !sameLayout) {
         const MomentWork whole = inputs.momentTexels > 0 ? wholeMoments() : MomentWork{};
-        shaded = s.lighting->shade(inputs, push, frame.gbuffer, visible, &traffic, &whole, readColor, readTerms, true);
+        shaded = s.lighting->shade(inputs, push, frame.gbuffer, visible, &traffic, &whole, readColor, readTerms, true,
+                                   needRays);
         shadedWhole = true;
       } else {
         s.pendingTexels.insert(s.pendingTexels.end(), tracedTexels.begin(), tracedTexels.end());
@@ -913,6 +925,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
         changes.allPixels = shadeAll;
         changes.storeInPlace = deviceStore;
         changes.gbufferOnDevice = true;
+        changes.visibilityOnDevice = needRays;
         changes.moments = &momentJobs;
         changes.wholeMoments = wholeMoments;
         // Changed pixels are copied into a host copy that holds the rest; without one, read whole below.

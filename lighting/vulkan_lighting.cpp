@@ -10,6 +10,7 @@
 #include "deferred_lighting_variant.spv.h"
 #include "evsm_moments.spv.h"
 #include "gbuffer_resolve.spv.h"
+#include "visibility_spread.spv.h"
 #include "lighting/lighting_variant.h"
 #include "lighting/shared/lighting_interface.h"
 #include "voxel/error.h"
@@ -44,12 +45,16 @@ struct LightingPipelines {
   vk::UniquePipelineLayout momentLayout;
   vk::UniquePipeline momentPipeline;
   vk::UniqueShaderModule momentModule;
-  // The G-buffer resolve: its own set (a camera trace's buffers, the tables, the G-buffer); made with the first
-  // resolve.
-  vk::UniqueDescriptorSetLayout resolveSetLayout;
-  vk::UniquePipelineLayout resolveLayout;
-  vk::UniquePipeline resolvePipeline;
-  vk::UniqueShaderModule resolveModule;
+  // The passes that bring a trace's results into the lighting pass's buffers on the device (the G-buffer
+  // resolve, the spread of visibility answers): each has its own set of storage buffers and push block, and is
+  // made on its first use.
+  struct HelperPass {
+    vk::UniqueDescriptorSetLayout setLayout;
+    vk::UniquePipelineLayout layout;
+    vk::UniquePipeline pipeline;
+    vk::UniqueShaderModule module;
+  };
+  HelperPass resolve, spread;
 
   // At most this many specialised variants are kept: a caller that keeps switching lights' filters recompiles,
   // it does not grow without bound.
@@ -101,22 +106,25 @@ struct LightingPipelines {
     return variants.back().second;
   }
 
-  void makeResolvePipeline() {
+  // `pass`, made now if it was not: `bindings` storage buffers, a push block of `pushBytes`.
+  const HelperPass& helper(HelperPass& pass, const std::uint32_t* code, std::size_t codeBytes, std::uint32_t bindings,
+                           std::uint32_t pushBytes) {
     std::lock_guard lock(mutex);
-    if (resolvePipeline) return;
-    std::array<VkDescriptorSetLayoutBinding, gpu::VS_RESOLVE_BINDING_COUNT> bindings{};
-    for (std::uint32_t b = 0; b < gpu::VS_RESOLVE_BINDING_COUNT; ++b)
-      bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+    if (pass.pipeline) return pass;
+    std::vector<VkDescriptorSetLayoutBinding> layoutBindings(bindings);
+    for (std::uint32_t b = 0; b < bindings; ++b)
+      layoutBindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
     auto dl = vk::make<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
-    dl.bindingCount = std::uint32_t(bindings.size());
-    dl.pBindings = bindings.data();
+    dl.bindingCount = bindings;
+    dl.pBindings = layoutBindings.data();
     VkDescriptorSetLayout made = VK_NULL_HANDLE;
     vk::check(context.functions().vkCreateDescriptorSetLayout(context.device(), &dl, context.functions().allocator, &made),
               "vkCreateDescriptorSetLayout");
-    resolveSetLayout = vk::UniqueDescriptorSetLayout(context.functions(), context.device(), made);
-    resolveModule = context.createShaderModule(gbuffer_resolve, sizeof gbuffer_resolve);
-    resolveLayout = context.createPipelineLayout(resolveSetLayout.get(), sizeof(gpu::ResolvePush));
-    resolvePipeline = context.createComputePipeline(resolveModule.get(), resolveLayout.get());
+    pass.setLayout = vk::UniqueDescriptorSetLayout(context.functions(), context.device(), made);
+    pass.module = context.createShaderModule(code, codeBytes);
+    pass.layout = context.createPipelineLayout(pass.setLayout.get(), pushBytes);
+    pass.pipeline = context.createComputePipeline(pass.module.get(), pass.layout.get());
+    return pass;
   }
 
   void makeMomentPipeline() {
@@ -147,10 +155,14 @@ struct VulkanLighting::Impl {
   // A buffer was replaced outside sizeFor (the resolve's G-buffer): the set is written again before it is used.
   bool descriptorsStale = false;
 
-  // The G-buffer resolve's set and tables (the last ones written, compared before writing again), and how many
-  // pixels' texels the G-buffer buffer holds whole, as the host's G-buffer has them (0: not whole, or unknown).
-  vk::UniqueDescriptorPool resolvePool;
-  VkDescriptorSet resolveSet = VK_NULL_HANDLE;
+  // Each helper pass's descriptor set (LightingPipelines::HelperPass), allocated with its first run.
+  struct HelperSet {
+    vk::UniqueDescriptorPool pool;
+    VkDescriptorSet set = VK_NULL_HANDLE;
+  };
+  HelperSet resolveSet, spreadSet;
+  // The G-buffer resolve's tables (the last ones written, compared before writing again), and how many pixels'
+  // texels the G-buffer buffer holds whole, as the host's G-buffer has them (0: not whole, or unknown).
   vk::Buffer resolveInstances, resolvePalette;
   std::vector<gpu::GBufferInstance> heldInstances;
   std::vector<glm::vec4> heldPalette;
@@ -160,6 +172,10 @@ struct VulkanLighting::Impl {
   // vsReceiverOf the G-buffer the pass holds (0: not whole: a G-buffer written from the host since).
   vk::Buffer receivers;
   std::size_t receiversHeld = 0;
+  // How many answers (pixels x lights) the visibility buffer holds whole, as the host's answers are (0: not
+  // whole, or unknown); the light slots the spread last read.
+  std::size_t visibilityHeld = 0;
+  vk::Buffer spreadSlots;
 
   explicit Impl(std::shared_ptr<VulkanContext> c) : owner(std::move(c)), context(*owner) {
     pipelines = std::static_pointer_cast<LightingPipelines>(context.shared("lighting pipelines", [&] {
@@ -206,6 +222,7 @@ struct VulkanLighting::Impl {
         (b == gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS ? VkBufferUsageFlags(VK_BUFFER_USAGE_TRANSFER_DST_BIT) : VkBufferUsageFlags(0));
     buffers[b] = context.createHostBuffer(need, usage);
     if (b == gpu::VS_LIGHTING_BINDING_GBUFFER) gbufferHeld = 0;
+    if (b == gpu::VS_LIGHTING_BINDING_VISIBILITY) visibilityHeld = 0;
     return true;
   }
 
@@ -319,7 +336,8 @@ struct VulkanLighting::Impl {
 
   ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                     std::span<const std::uint32_t> rayVisibility, LightingTraffic& traffic, bool storeInPlace,
-                    const MomentWork* moments, bool readColor, bool readTerms, bool gbufferOnDevice) {
+                    const MomentWork* moments, bool readColor, bool readTerms, bool gbufferOnDevice,
+                    bool visibilityOnDevice) {
     std::vector<std::uint32_t> clear;
     rayVisibility = checkShadeSizes(inputs, push, gbuffer, rayVisibility, clear);
     const std::size_t pixels = gbuffer.texels.size();
@@ -335,8 +353,7 @@ struct VulkanLighting::Impl {
       fill(gpu::VS_LIGHTING_BINDING_SHADOW_TEXELS, inputs.shadowTexels.data(), inputs.shadowTexels.size() * sizeof(float));
       traffic.uploaded += inputs.shadowTexels.size() * sizeof(float);
     }
-    fill(gpu::VS_LIGHTING_BINDING_VISIBILITY, rayVisibility.data(), rayVisibility.size() * sizeof(std::uint32_t));
-    traffic.uploaded += rayVisibility.size() * sizeof(std::uint32_t);
+    writeVisibility(rayVisibility, visibilityOnDevice, traffic);
     if (inputs.momentTexels > 0 && (!moments || moments->vertical != inputs.momentTexels))
       throwBadInput("lighting: a frame with EVSM layers needs the work of its whole moment store");
     writeMomentWork(moments, traffic);
@@ -395,24 +412,8 @@ struct VulkanLighting::Impl {
     const bool receiversWhole = trace.rays == pixels || receiversHeld == pixels;
     gbufferHeld = 0;  // until the resolve has run
     receiversHeld = 0;
-    pipelines->makeResolvePipeline();
-    if (!resolvePool) {
-      const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::VS_RESOLVE_BINDING_COUNT};
-      auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-      dp.maxSets = 1;
-      dp.poolSizeCount = 1;
-      dp.pPoolSizes = &size;
-      VkDescriptorPool pool = VK_NULL_HANDLE;
-      vk::check(context.functions().vkCreateDescriptorPool(context.device(), &dp, context.functions().allocator, &pool),
-                "vkCreateDescriptorPool");
-      resolvePool = vk::UniqueDescriptorPool(context.functions(), context.device(), pool);
-      const VkDescriptorSetLayout setLayout = pipelines->resolveSetLayout.get();
-      auto ai = vk::make<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
-      ai.descriptorPool = pool;
-      ai.descriptorSetCount = 1;
-      ai.pSetLayouts = &setLayout;
-      vk::check(context.functions().vkAllocateDescriptorSets(context.device(), &ai, &resolveSet), "vkAllocateDescriptorSets");
-    }
+    const LightingPipelines::HelperPass& pass = pipelines->helper(
+        pipelines->resolve, gbuffer_resolve, sizeof gbuffer_resolve, gpu::VS_RESOLVE_BINDING_COUNT, sizeof(gpu::ResolvePush));
     // The tables change with the scene's instances and palettes only: written when they differ.
     const bool sameTables = tablesHeld && heldInstances.size() == tables.instances.size() &&
                             heldPalette.size() == tables.palette.size() &&
@@ -433,42 +434,65 @@ struct VulkanLighting::Impl {
       heldPalette = tables.palette;
       tablesHeld = true;
     }
-    const std::array<VkDescriptorBufferInfo, gpu::VS_RESOLVE_BINDING_COUNT> infos{{
-        {trace.hits, 0, VK_WHOLE_SIZE},
-        {trace.camera, 0, VK_WHOLE_SIZE},
-        {resolveInstances.get(), 0, VK_WHOLE_SIZE},
-        {resolvePalette.get(), 0, VK_WHOLE_SIZE},
-        {buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].get(), 0, VK_WHOLE_SIZE},
-        {receivers.get(), 0, VK_WHOLE_SIZE},
-    }};
-    std::array<VkWriteDescriptorSet, gpu::VS_RESOLVE_BINDING_COUNT> writes{};
-    for (std::uint32_t b = 0; b < gpu::VS_RESOLVE_BINDING_COUNT; ++b) {
+    gpu::ResolvePush push{};
+    push.counts = glm::uvec4(std::uint32_t(trace.rays), std::uint32_t(tables.instances.size()), 0u, 0u);
+    const std::array<VkBuffer, gpu::VS_RESOLVE_BINDING_COUNT> bound{
+        trace.hits, trace.camera, resolveInstances.get(), resolvePalette.get(),
+        buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].get(), receivers.get()};
+    runHelper(pass, resolveSet, bound, &push, sizeof push, trace.rays, gpu::VS_RESOLVE_GROUP_SIZE);
+    ++traffic.dispatches;
+    gbufferHeld = pixels;
+    if (receiversWhole) receiversHeld = pixels;
+  }
+
+  // Runs a helper pass over `invocations` (rows of workgroups along y past maxComputeWorkGroupCount[0]) with
+  // `bound` at its bindings, in one submission: the host's and earlier shaders' writes before it, its writes
+  // visible to later shaders and host reads.
+  void runHelper(const LightingPipelines::HelperPass& pass, HelperSet& helperSet, std::span<const VkBuffer> bound,
+                 const void* push, std::uint32_t pushBytes, std::uint64_t invocations, std::uint32_t groupSize) {
+    VkDevice dev = context.device();
+    if (!helperSet.pool) {
+      const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, std::uint32_t(bound.size())};
+      auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+      dp.maxSets = 1;
+      dp.poolSizeCount = 1;
+      dp.pPoolSizes = &size;
+      VkDescriptorPool pool = VK_NULL_HANDLE;
+      vk::check(context.functions().vkCreateDescriptorPool(dev, &dp, context.functions().allocator, &pool), "vkCreateDescriptorPool");
+      helperSet.pool = vk::UniqueDescriptorPool(context.functions(), dev, pool);
+      const VkDescriptorSetLayout setLayout = pass.setLayout.get();
+      auto ai = vk::make<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+      ai.descriptorPool = pool;
+      ai.descriptorSetCount = 1;
+      ai.pSetLayouts = &setLayout;
+      vk::check(context.functions().vkAllocateDescriptorSets(dev, &ai, &helperSet.set), "vkAllocateDescriptorSets");
+    }
+    std::vector<VkDescriptorBufferInfo> infos(bound.size());
+    std::vector<VkWriteDescriptorSet> writes(bound.size());
+    for (std::size_t b = 0; b < bound.size(); ++b) {
+      infos[b] = {bound[b], 0, VK_WHOLE_SIZE};
       writes[b] = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
-      writes[b].dstSet = resolveSet;
-      writes[b].dstBinding = b;
+      writes[b].dstSet = helperSet.set;
+      writes[b].dstBinding = std::uint32_t(b);
       writes[b].descriptorCount = 1;
       writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
       writes[b].pBufferInfo = &infos[b];
     }
-    context.functions().vkUpdateDescriptorSets(context.device(), std::uint32_t(writes.size()), writes.data(), 0, nullptr);
-    gpu::ResolvePush push{};
-    push.counts = glm::uvec4(std::uint32_t(trace.rays), std::uint32_t(tables.instances.size()), 0u, 0u);
-    const std::uint64_t groups = (trace.rays + gpu::VS_RESOLVE_GROUP_SIZE - 1) / gpu::VS_RESOLVE_GROUP_SIZE;
+    context.functions().vkUpdateDescriptorSets(dev, std::uint32_t(writes.size()), writes.data(), 0, nullptr);
+    const std::uint64_t groups = (invocations + groupSize - 1) / groupSize;
     const std::uint32_t groupsX = std::uint32_t(std::min<std::uint64_t>(groups, context.info().maxWorkGroupCount[0]));
     const std::uint32_t groupsY = std::uint32_t((groups + groupsX - 1) / groupsX);
-    const VkPipelineLayout layout = pipelines->resolveLayout.get();
+    const VkPipelineLayout layout = pass.layout.get();
     context.submitAndWait([&](VkCommandBuffer cmd) {
-      // The host's writes (tables) and the trace's (hits), before the resolve reads them.
       auto before = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
       before.srcAccessMask = VK_ACCESS_HOST_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT;
       before.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
       context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                                                VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
-      context.functions().vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines->resolvePipeline.get());
-      context.functions().vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &resolveSet, 0, nullptr);
-      context.functions().vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+      context.functions().vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pass.pipeline.get());
+      context.functions().vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &helperSet.set, 0, nullptr);
+      context.functions().vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes, push);
       context.functions().vkCmdDispatch(cmd, groupsX, groupsY, 1);
-      // The G-buffer to the lighting pass and to a host that reads it.
       auto after = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
       after.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
       after.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT;
@@ -476,9 +500,58 @@ struct VulkanLighting::Impl {
                                                VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
                                                &after, 0, nullptr, 0, nullptr);
     });
+  }
+
+  // The host's answers per pixel and light into the pass's buffer (sized), unless the device's spread left them
+  // there whole (spreadVisibility, `onDevice`).
+  void writeVisibility(std::span<const std::uint32_t> answers, bool onDevice, LightingTraffic& traffic) {
+    if (onDevice && visibilityHeld == answers.size() && !answers.empty()) return;
+    fill(gpu::VS_LIGHTING_BINDING_VISIBILITY, answers.data(), answers.size() * sizeof(std::uint32_t));
+    traffic.uploaded += answers.size() * sizeof(std::uint32_t);
+    visibilityHeld = answers.size();
+  }
+
+  void spreadVisibility(const VisibilityTraceBuffers& trace, std::span<const int> slots, std::size_t pixels,
+                        std::span<const std::uint32_t> current, LightingTraffic& traffic) {
+    const std::size_t lights = slots.size();
+    if (current.size() != pixels * lights || pixels == 0 || lights == 0)
+      throwBadInput("lighting: " + std::to_string(current.size()) + " visibility answers for " + std::to_string(pixels) +
+                    " pixels and " + std::to_string(lights) + " lights");
+    std::uint32_t traced = 0;
+    for (int j : slots)
+      if (j >= 0) traced = std::max(traced, std::uint32_t(j) + 1);
+    if (trace.receivers > pixels || (trace.receivers > 0 && trace.lights != traced))
+      throwBadInput("lighting: a visibility trace of " + std::to_string(trace.receivers) + " receivers and " +
+                    std::to_string(trace.lights) + " lights to spread over " + std::to_string(pixels) + " pixels and " +
+                    std::to_string(traced) + " traced lights");
+    if (reserve(gpu::VS_LIGHTING_BINDING_VISIBILITY, current.size() * sizeof(std::uint32_t))) {
+      descriptorsStale = true;
+      heldSizes.clear();
+    }
+    const bool whole = trace.receivers == pixels && !trace.listed;
+    if (trace.receivers == 0 || (!whole && visibilityHeld != current.size())) {
+      // No trace on the device to spread, or one that would update rows the pass does not hold whole: the
+      // host's answers go up whole.
+      writeVisibility(current, false, traffic);
+      return;
+    }
+    visibilityHeld = 0;  // until the spread has run
+    const LightingPipelines::HelperPass& pass = pipelines->helper(
+        pipelines->spread, visibility_spread, sizeof visibility_spread, gpu::VS_SPREAD_BINDING_COUNT, sizeof(gpu::SpreadPush));
+    const VkDeviceSize slotBytes = std::max<VkDeviceSize>(16, slots.size_bytes());
+    if (!spreadSlots.buffer || spreadSlots.size < slotBytes)
+      spreadSlots = context.createHostBuffer(slotBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    std::memcpy(spreadSlots.mapped, slots.data(), slots.size_bytes());
+    traffic.uploaded += slots.size_bytes();
+    gpu::SpreadPush push{};
+    // The pixel list follows the trace's record (12 words) and its lights (8 words each).
+    const std::uint32_t listStart = trace.listed ? 12u + 8u * trace.lights : 0u;
+    push.counts = glm::uvec4(std::uint32_t(trace.receivers), trace.lights, std::uint32_t(lights), listStart);
+    const std::array<VkBuffer, gpu::VS_SPREAD_BINDING_COUNT> bound{
+        trace.answers, trace.source, spreadSlots.get(), buffers[gpu::VS_LIGHTING_BINDING_VISIBILITY].get()};
+    runHelper(pass, spreadSet, bound, &push, sizeof push, trace.receivers, gpu::VS_SPREAD_GROUP_SIZE);
     ++traffic.dispatches;
-    gbufferHeld = pixels;
-    if (receiversWhole) receiversHeld = pixels;
+    visibilityHeld = current.size();
   }
 
   static void checkTexelRanges(std::span<const std::pair<std::size_t, std::size_t>> ranges, std::size_t texels) {
@@ -532,7 +605,8 @@ struct VulkanLighting::Impl {
         wholeWork = changes.wholeMoments();
       }
       ShadeOutput whole = shade(inputs, push, gbuffer, rayVisibility, traffic, changes.storeInPlace, &wholeWork,
-                                changes.readColor, changes.readTerms, changes.gbufferOnDevice);
+                                changes.readColor, changes.readTerms, changes.gbufferOnDevice,
+                                changes.visibilityOnDevice);
       if (changes.readColor) out.color.swap(whole.color);
       if (changes.readTerms) out.shadowTerms.swap(whole.shadowTerms);
       return;
@@ -554,8 +628,7 @@ struct VulkanLighting::Impl {
     writeTexelRanges(inputs.shadowTexels, changes.texelRanges, traffic);
     if (changes.allPixels) {
       writeGBuffer(gbuffer, changes.gbufferOnDevice, traffic);
-      fill(gpu::VS_LIGHTING_BINDING_VISIBILITY, rayVisibility.data(), rayVisibility.size() * sizeof(std::uint32_t));
-      traffic.uploaded += rayVisibility.size() * sizeof(std::uint32_t);
+      writeVisibility(rayVisibility, changes.visibilityOnDevice, traffic);
       dispatch(push);
       heldSizes = sizes;
       readResults(changes.readColor ? &out.color : nullptr, changes.readTerms ? &out.shadowTerms : nullptr, traffic);
@@ -568,12 +641,16 @@ struct VulkanLighting::Impl {
     const bool gbufferInPlace = changes.gbufferOnDevice && gbufferHeld == pixels;
     if (changes.gbufferOnDevice && !gbufferInPlace) writeGBuffer(gbuffer, false, traffic);
     if (!changes.gbufferOnDevice && !changes.inputPixels.empty()) receiversHeld = 0;
+    // Likewise the answers the device spread.
+    const bool visibilityInPlace = changes.visibilityOnDevice && visibilityHeld == rayVisibility.size();
+    if (changes.visibilityOnDevice && !visibilityInPlace) writeVisibility(rayVisibility, false, traffic);
     for (std::uint32_t p : changes.inputPixels) {
       if (!changes.gbufferOnDevice) g[p] = gbuffer.texels[p];
-      for (std::size_t l = 0; l < perPixel; ++l) v[p * perPixel + l] = rayVisibility[p * perPixel + l];
+      if (!changes.visibilityOnDevice)
+        for (std::size_t l = 0; l < perPixel; ++l) v[p * perPixel + l] = rayVisibility[p * perPixel + l];
     }
-    traffic.uploaded += changes.inputPixels.size() *
-                        ((changes.gbufferOnDevice ? 0 : sizeof(gpu::GBufferTexel)) + perPixel * sizeof(std::uint32_t));
+    traffic.uploaded += changes.inputPixels.size() * ((changes.gbufferOnDevice ? 0 : sizeof(gpu::GBufferTexel)) +
+                                                      (changes.visibilityOnDevice ? 0 : perPixel * sizeof(std::uint32_t)));
     // Only the listed pixels are shaded again: every other pixel's inputs are the last frame's, and so are the
     // colour and terms the buffers keep for it. A list of most of the frame costs more than the frame (one more
     // read per pixel, scattered), and one too long for a row of workgroups cannot be dispatched as one.
@@ -689,9 +766,26 @@ void VulkanLighting::resolveGBuffer(const CameraTraceBuffers& trace, const GBuff
   }
 }
 
+void VulkanLighting::spreadVisibility(const VisibilityTraceBuffers& trace, std::span<const int> slots, std::size_t pixels,
+                                      std::span<const std::uint32_t> current, LightingTraffic* traffic) {
+  LightingTraffic t;
+  impl_->spreadVisibility(trace, slots, pixels, current, t);
+  if (traffic) {
+    traffic->uploaded += t.uploaded;
+    traffic->dispatches += t.dispatches;
+  }
+}
+
 DeviceReceivers VulkanLighting::receivers(std::size_t pixels) const {
   if (pixels == 0 || impl_->receiversHeld != pixels) return {};
   return {impl_->receivers.get(), pixels, {}};
+}
+
+void VulkanLighting::readVisibility(std::span<std::uint32_t> out, LightingTraffic* traffic) const {
+  if (out.empty() || impl_->visibilityHeld != out.size())
+    throwBadInput("lighting: the pass holds no visibility answers of " + std::to_string(out.size()) + " to read");
+  std::memcpy(out.data(), impl_->buffers[gpu::VS_LIGHTING_BINDING_VISIBILITY].mapped, out.size_bytes());
+  if (traffic) traffic->readBack += out.size_bytes();
 }
 
 void VulkanLighting::readGBuffer(GBuffer& out, LightingTraffic* traffic) const {
@@ -783,13 +877,15 @@ int VulkanLighting::variantsCompiled() const {
 VulkanLighting::~VulkanLighting() = default;
 ShadeOutput VulkanLighting::shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                                   std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic,
-                                  const MomentWork* moments, bool readColor, bool readTerms, bool gbufferOnDevice) {
+                                  const MomentWork* moments, bool readColor, bool readTerms, bool gbufferOnDevice,
+                                  bool visibilityOnDevice) {
   LightingTraffic t;
   impl_->shadedPixels = 0;
   impl_->momentTexels = 0;
   impl_->dispatches = 0;
   ShadeOutput out =
-      impl_->shade(inputs, push, gbuffer, rayVisibility, t, false, moments, readColor, readTerms, gbufferOnDevice);
+      impl_->shade(inputs, push, gbuffer, rayVisibility, t, false, moments, readColor, readTerms, gbufferOnDevice,
+                   visibilityOnDevice);
   t.pixelsShaded = impl_->shadedPixels;
   t.momentTexels = impl_->momentTexels;
   t.dispatches = impl_->dispatches;

@@ -50,6 +50,8 @@ struct ShadeChanges {
   // The pass's G-buffer holds this frame's texels, resolved on the device (resolveGBuffer): none is written from
   // `gbuffer` (where the pass holds no whole G-buffer of this size, `gbuffer` goes up whole).
   bool gbufferOnDevice = false;
+  // Likewise the answers per pixel and light, spread on the device (spreadVisibility).
+  bool visibilityOnDevice = false;
   // EVSM: the moment rectangles the changed texels touch (null: none), computed from the pass's store before it
   // shades; and the whole store's work, for a pass that holds no moments of this frame's size (its first, or
   // after another size): called only then.
@@ -84,11 +86,11 @@ class VulkanLighting {
   // on the device before the frame is shaded; required when inputs.momentTexels > 0 (inputs.moments is not
   // read). Throws vs::Error(BadInput) as shadeOnCpu does, vs::Error(Runtime) on device errors.
   // `readColor`, `readTerms`: whether the colours and terms are copied back (else the output's are empty).
-  // `gbufferOnDevice`: as ShadeChanges::gbufferOnDevice.
+  // `gbufferOnDevice`, `visibilityOnDevice`: as ShadeChanges' members.
   ShadeOutput shade(const ShadeInputs& inputs, const gpu::ShadePush& push, const GBuffer& gbuffer,
                     std::span<const std::uint32_t> rayVisibility, LightingTraffic* traffic = nullptr,
                     const MomentWork* moments = nullptr, bool readColor = true, bool readTerms = true,
-                    bool gbufferOnDevice = false);
+                    bool gbufferOnDevice = false, bool visibilityOnDevice = false);
 
   // The pass over a frame whose inputs differ from the last shade()'s or shadeChanged()'s only where `changes`
   // says: the buffers keep the last frame's inputs, so only the changed texel ranges and pixels (their G-buffer
@@ -114,10 +116,21 @@ class VulkanLighting {
   // pixels, or `current` is not width x height texels; vs::Error(Runtime) on device errors.
   void resolveGBuffer(const CameraTraceBuffers& trace, const GBufferTables& tables, const GBuffer& current,
                       LightingTraffic* traffic = nullptr);
+  // Spreads a visibility trace's answers on this pass's device (VulkanTracer::lastVisibilityTrace, right after
+  // a traceVisibility from DeviceReceivers) into the pass's answers per pixel and light (1 where clear): light l
+  // of the frame is the trace's light slots[l], or has no ray (-1: its answer is 1). `current`: the host's
+  // answers after this trace, pixels x lights (the same values), written whole instead where the trace holds no
+  // results on the device or would update rows the pass does not hold whole. Then shade() or shadeChanged()
+  // with visibilityOnDevice write none. Throws vs::Error(BadInput) on sizes that disagree.
+  void spreadVisibility(const VisibilityTraceBuffers& trace, std::span<const int> slots, std::size_t pixels,
+                        std::span<const std::uint32_t> current, LightingTraffic* traffic = nullptr);
   // The visibility receivers of the G-buffer the pass holds (vsReceiverOf each texel), which the resolve writes
   // beside it, for VulkanTracer::traceVisibility to read in place (set `pixels` of the result to take some);
   // an empty buffer where they are not whole for `pixels` pixels (a G-buffer written from the host since).
   DeviceReceivers receivers(std::size_t pixels) const;
+  // Copies the answers per pixel and light the pass holds (spread or written) into `out`, whose size must be
+  // the held one's (else vs::Error(BadInput)).
+  void readVisibility(std::span<std::uint32_t> out, LightingTraffic* traffic = nullptr) const;
   // Copies the G-buffer the pass holds (resolved or written) into `out`, whose size must be the held one's (else
   // vs::Error(BadInput)).
   void readGBuffer(GBuffer& out, LightingTraffic* traffic = nullptr) const;

@@ -78,9 +78,10 @@ TEST(LightingBackends, VulkanMatchesTheCpuPass) {
 }
 
 // The G-buffer resolved on the device (VulkanLighting::resolveGBuffer) equals the host's resolve of the same
-// hits bit for bit, whole and for listed pixels, and the visibility rays made from the receivers it leaves on
-// the device answer as those made from the host's receivers; bad device receivers are refused.
-TEST(LightingBackends, TheDeviceResolvesTheGBufferAndItsReceiversAsTheHost) {
+// hits bit for bit, whole and for listed pixels; the visibility rays made from the receivers it leaves on the
+// device answer as those made from the host's receivers, and their answers spread on the device
+// (spreadVisibility) as the host spreads them; bad device receivers are refused.
+TEST(LightingBackends, TheDeviceResolvesTheGBufferAndSpreadsTheAnswersAsTheHost) {
   VulkanOptions options;
   options.validation = true;
   std::unique_ptr<Tracer> tracer = makeVulkanTracer(options);  // no device: fails here, loudly
@@ -131,6 +132,7 @@ TEST(LightingBackends, TheDeviceResolvesTheGBufferAndItsReceiversAsTheHost) {
   lights[1].position = glm::vec4(30.0f, 60.0f, 30.0f, 200.0f);
   const std::vector<float> lengths{1.5f, -1.0f};
   const VisibilitySetup setup = visibilitySetup(lights, lengths, scene.worldBounds());
+  std::vector<std::uint32_t> spreadRows;
   for (const bool whole : {true, false}) {
     std::vector<std::uint32_t> some;
     if (!whole)
@@ -144,6 +146,22 @@ TEST(LightingBackends, TheDeviceResolvesTheGBufferAndItsReceiversAsTheHost) {
     onDevice.pixels = some;
     vulkan.traceVisibility(setup.frame, setup.lights, onDevice, fromDevice);
     EXPECT_EQ(fromDevice, fromHost) << (whole ? "every pixel" : "listed pixels");
+    // The answers spread per pixel and light on the device, for a frame of three lights of which the second
+    // has no ray, as the host spreads them (the rows of the pixels not traced are the last spread's).
+    const std::vector<int> slots{0, -1, 1};
+    if (whole) spreadRows.assign(pixels * slots.size(), 0u);
+    for (std::size_t k = 0; k < receivers.size(); ++k) {
+      const std::size_t p = whole ? k : some[k];
+      for (std::size_t l = 0; l < slots.size(); ++l)
+        spreadRows[p * slots.size() + l] =
+            slots[l] < 0 ? 1u : fromHost[k * lights.size() + std::size_t(slots[l])] == 0u ? 1u : 0u;
+    }
+    traffic = {};
+    lighting.spreadVisibility(vulkan.lastVisibilityTrace(), slots, pixels, spreadRows, &traffic);
+    EXPECT_EQ(traffic.dispatches, 1) << "spread on the device";
+    std::vector<std::uint32_t> spreadOnDevice(spreadRows.size(), 7u);
+    lighting.readVisibility(spreadOnDevice);
+    EXPECT_EQ(spreadOnDevice, spreadRows) << (whole ? "every pixel" : "listed pixels");
     EXPECT_GT(std::count(fromHost.begin(), fromHost.end(), 1u), 100) << "some rays are blocked";
     EXPECT_GT(std::count(fromHost.begin(), fromHost.end(), 0u), 100) << "some rays are clear";
   }

@@ -178,6 +178,7 @@ struct VulkanTracer::Impl {
   // receivers in.
   vk::Buffer rayBuffer, hitBuffer, occludedBuffer, cameraBuffer, visibilityBuffer;
   std::uint64_t cameraTraceRays = 0;  // the rays of the camera trace whose results hitBuffer holds (lastCameraTrace)
+  VisibilityTraceBuffers visibilityTrace;  // the last trace from DeviceReceivers (lastVisibilityTrace)
   VkBuffer deviceReceivers = VK_NULL_HANDLE;  // bound at VS_BINDING_RECEIVERS for the call under way (else the placeholder)
 
   explicit Impl(const VulkanOptions& o)
@@ -1091,17 +1092,20 @@ VulkanTracer::~VulkanTracer() = default;
 void VulkanTracer::upload(const SceneData& scene) {
   CallInProgress call(impl_->busy, "upload");
   impl_->cameraTraceRays = 0;
+  impl_->visibilityTrace = {};
   impl_->upload(scene);
 }
 bool VulkanTracer::boxTableInUse() const { return impl_->boxTableUploaded; }
 void VulkanTracer::upload(const SceneArrays& scene) {
   CallInProgress call(impl_->busy, "upload");
   impl_->cameraTraceRays = 0;
+  impl_->visibilityTrace = {};
   impl_->uploadArrays(scene);
 }
 void VulkanTracer::update(const SceneData& scene, const SceneDelta& delta) {
   CallInProgress call(impl_->busy, "update");
   impl_->cameraTraceRays = 0;
+  impl_->visibilityTrace = {};
   impl_->update(scene, delta);
 }
 std::uint64_t VulkanTracer::bytesUploaded() const { return impl_->uploadedBytes; }
@@ -1109,22 +1113,26 @@ int VulkanTracer::bufferGrowths() const { return impl_->growths; }
 void VulkanTracer::uploadInstances(const SceneData& scene) {
   CallInProgress call(impl_->busy, "uploadInstances");
   impl_->cameraTraceRays = 0;
+  impl_->visibilityTrace = {};
   impl_->uploadInstances(scene);
 }
 TraceStats VulkanTracer::trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers) {
   CallInProgress call(impl_->busy, "trace");
   impl_->cameraTraceRays = 0;
+  impl_->visibilityTrace = {};
   return impl_->trace(views, layers);
 }
 TraceStats VulkanTracer::traceInto(std::span<const gpu::TraceView> views, const DeviceTexelTarget& target) {
   CallInProgress call(impl_->busy, "traceInto");
   impl_->cameraTraceRays = 0;
+  impl_->visibilityTrace = {};
   std::vector<ShadowLayer> none;
   return impl_->trace(views, none, &target);
 }
 TraceStats VulkanTracer::traceClosest(std::span<const gpu::TraceRay> rays, std::span<gpu::RayHit> hits) {
   CallInProgress call(impl_->busy, "traceClosest");
   impl_->cameraTraceRays = 0;
+  impl_->visibilityTrace = {};
   if (hits.size() != rays.size())
     throwBadInput("traceClosest: " + std::to_string(hits.size()) + " hit records for " + std::to_string(rays.size()) +
                   " rays");
@@ -1133,6 +1141,7 @@ TraceStats VulkanTracer::traceClosest(std::span<const gpu::TraceRay> rays, std::
 TraceStats VulkanTracer::traceAny(std::span<const gpu::TraceRay> rays, std::span<std::uint32_t> occluded) {
   CallInProgress call(impl_->busy, "traceAny");
   impl_->cameraTraceRays = 0;
+  impl_->visibilityTrace = {};
   if (occluded.size() != rays.size())
     throwBadInput("traceAny: " + std::to_string(occluded.size()) + " results for " + std::to_string(rays.size()) +
                   " rays");
@@ -1142,6 +1151,7 @@ TraceStats VulkanTracer::traceCamera(const gpu::CameraRays& camera, std::span<co
                                      std::span<gpu::RayHit> hits) {
   CallInProgress call(impl_->busy, "traceCamera");
   impl_->cameraTraceRays = 0;
+  impl_->visibilityTrace = {};
   const std::uint64_t count = checkCameraTrace(camera, pixels, hits.size());
   gpu::CameraRays record = camera;
   record.size.z = static_cast<std::uint32_t>(pixels.size());
@@ -1154,6 +1164,7 @@ TraceStats VulkanTracer::traceVisibility(const gpu::VisibilityRays& frame, std::
                                          const DeviceReceivers& receivers, std::span<std::uint32_t> occluded) {
   CallInProgress call(impl_->busy, "traceVisibility");
   impl_->cameraTraceRays = 0;
+  impl_->visibilityTrace = {};
   checkVisibilityTrace(frame, lights, {}, 0);  // the record and the lights
   if (receivers.buffer == VK_NULL_HANDLE) throwBadInput("traceVisibility: DeviceReceivers.buffer: none");
   const std::uint64_t taken = receivers.pixels.empty() ? receivers.pixelCount : receivers.pixels.size();
@@ -1182,9 +1193,15 @@ TraceStats VulkanTracer::traceVisibility(const gpu::VisibilityRays& frame, std::
     VkBuffer& b;
     ~Unbind() { b = VK_NULL_HANDLE; }
   } unbind{impl_->deviceReceivers};
-  return impl_->traceRays(gpu::RayKind::Visibility, {}, occluded.data(), sizeof(std::uint32_t), nullptr, {}, count,
-                          sizeof record + lights.size_bytes() + receivers.pixels.size_bytes(), write);
+  const TraceStats stats =
+      impl_->traceRays(gpu::RayKind::Visibility, {}, occluded.data(), sizeof(std::uint32_t), nullptr, {}, count,
+                       sizeof record + lights.size_bytes() + receivers.pixels.size_bytes(), write);
+  if (count > 0)
+    impl_->visibilityTrace = {impl_->occludedBuffer.get(), impl_->visibilityBuffer.get(), taken,
+                              std::uint32_t(lights.size()), !receivers.pixels.empty()};
+  return stats;
 }
+VisibilityTraceBuffers VulkanTracer::lastVisibilityTrace() const { return impl_->visibilityTrace; }
 CameraTraceBuffers VulkanTracer::lastCameraTrace() const {
   if (impl_->cameraTraceRays == 0) return {};
   return {impl_->hitBuffer.get(), impl_->cameraBuffer.get(), impl_->cameraTraceRays};
@@ -1194,6 +1211,7 @@ TraceStats VulkanTracer::traceVisibility(const gpu::VisibilityRays& frame, std::
                                          std::span<std::uint32_t> occluded) {
   CallInProgress call(impl_->busy, "traceVisibility");
   impl_->cameraTraceRays = 0;
+  impl_->visibilityTrace = {};
   const std::uint64_t count = checkVisibilityTrace(frame, lights, receivers, occluded.size());
   gpu::VisibilityRays record = frame;
   record.counts = glm::uvec4(std::uint32_t(lights.size()), std::uint32_t(receivers.size()), 0u, 0u);

@@ -110,6 +110,17 @@ struct DeviceReceivers {
   std::span<const std::uint32_t> pixels;
 };
 
+// The device buffers a visibility trace from DeviceReceivers left its results in (VulkanTracer::
+// lastVisibilityTrace): the answers (uint per ray, receiver by light) and the trace's source buffer (the
+// VisibilityRays record, its lights, then its listed pixels), as compute/shaders/shadow_trace.comp binds them.
+struct VisibilityTraceBuffers {
+  VkBuffer answers = VK_NULL_HANDLE;
+  VkBuffer source = VK_NULL_HANDLE;
+  std::uint64_t receivers = 0;  // 0: no such trace's results are held
+  std::uint32_t lights = 0;
+  bool listed = false;  // the receivers are the listed pixels' (else pixel k's)
+};
+
 class VulkanTracer {
  public:
   // Creates the context (device choice, validation) and the trace pipeline through the disk cache.
@@ -179,6 +190,9 @@ class VulkanTracer {
   // pixelCount. Precondition: the buffer holds pixelCount receivers, their writes visible to shaders.
   TraceStats traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
                              const DeviceReceivers& receivers, std::span<std::uint32_t> occluded);
+  // Where the last traceVisibility with DeviceReceivers left its answers and pixel list on the device, for a pass
+  // that reads them in place (the lighting pass's spread of the answers); valid as lastCameraTrace is.
+  VisibilityTraceBuffers lastVisibilityTrace() const;
   // Where the last traceCamera's hits and camera record are on the device, for a pass on this device that reads
   // them in place (the G-buffer resolve); valid until the tracer's next call that traces or uploads (rays 0
   // then, and when the last trace was not a camera trace). The shader's writes are visible to later shaders.

@@ -60,6 +60,16 @@ const uint VS_RESOLVE_BINDING_RECEIVERS = 5u;  // VisibilityReceiver per pixel (
 const uint VS_RESOLVE_BINDING_COUNT = 6u;
 const uint VS_RESOLVE_GROUP_SIZE = 64u;
 
+// The spread of a visibility trace's answers (lighting/shaders/visibility_spread.comp), its own set: the trace's
+// answers and source buffer as the tracer left them (VS_BINDING_OCCLUDED, VS_BINDING_VISIBILITY), which traced
+// light each of the frame's lights is, and the lighting pass's answers per pixel and light, written in place.
+const uint VS_SPREAD_BINDING_ANSWERS = 0u;  // uint per ray (receiver by traced light), nonzero where occluded
+const uint VS_SPREAD_BINDING_SOURCE = 1u;   // the trace's record, lights and listed pixels, as words
+const uint VS_SPREAD_BINDING_SLOTS = 2u;    // int per light of the frame: its traced index, -1 for none
+const uint VS_SPREAD_BINDING_VISIBILITY = 3u;  // uint per pixel and light, 1 where clear (written)
+const uint VS_SPREAD_BINDING_COUNT = 4u;
+const uint VS_SPREAD_GROUP_SIZE = 64u;
+
 // The moment pass: 64 invocations a workgroup, over a flat index of its jobs' texels.
 const uint VS_EVSM_GROUP_SIZE = 64u;
 

@@ -61,6 +61,13 @@ struct GBufferInstance {
   uvec4 palette;  // x: first colour; y: colour count; zw: 0
 };
 
+// The spread of visibility answers into the pass's answers per pixel and light
+// (lighting/shaders/visibility_spread.comp).
+struct SpreadPush {
+  uvec4 counts;  // x: receivers traced; y: lights traced toward; z: the frame's lights; w: the first word of the
+                 // receivers' pixel list in the trace's source buffer (0: receiver k is pixel k)
+};
+
 // The device resolve's push block (lighting/shaders/gbuffer_resolve.comp).
 struct ResolvePush {
   uvec4 counts;  // x: hits to resolve; y: instance records; zw: 0
@@ -161,6 +168,7 @@ VS_OFFSET_CHECK(GBufferTexel, info, 48);
 VS_LAYOUT_CHECK(GBufferInstance, 112);
 VS_OFFSET_CHECK(GBufferInstance, palette, 96);
 VS_LAYOUT_CHECK(ResolvePush, 16);
+VS_LAYOUT_CHECK(SpreadPush, 16);
 VS_LAYOUT_CHECK(ShadeLight, 112);
 VS_OFFSET_CHECK(ShadeLight, evsm, 96);
 VS_LAYOUT_CHECK(EvsmView, 48);
