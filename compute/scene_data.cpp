@@ -267,6 +267,7 @@ SceneData SceneData::build(std::span<const Brickmap* const> brickmaps, std::span
     scene.payload.insert(scene.payload.end(), bm->payloadWords().begin(), bm->payloadWords().end());
     scene.objects.push_back(rec);
     scene.objectAnchors.push_back(anchorPointOf(bm->bounds()));
+    scene.objectSizes.push_back(sizesOf(*bm));
   }
   // 32-bit indices address every array on both sides.
   if (scene.occupancy.size() > 0xffffffffull || scene.bricks.size() > 0xffffffffull ||
@@ -423,6 +424,7 @@ std::uint32_t SceneData::addObject(const Brickmap& brickmap, SceneDelta* delta) 
   const auto index = static_cast<std::uint32_t>(objects.size());
   objects.push_back(rec);
   objectAnchors.push_back(anchorPointOf(brickmap.bounds()));
+  objectSizes.push_back(sizes);
   addRange(d, SceneArray::Objects, index * sizeof(gpu::ObjectRecord), sizeof(gpu::ObjectRecord));
   const glm::ivec3 regionBricks = glm::ivec3(rec.regionOrigin) * (1 << (gpu::VS_REGION_LOG2 - gpu::VS_BRICK_LOG2));
   const VoxelBox grid{regionBricks,
@@ -440,6 +442,9 @@ SceneDelta SceneData::updateObject(std::uint32_t object, std::span<const Brickma
   if (brickmaps.size() != objects.size())
     throwBadInput(call + ": " + std::to_string(brickmaps.size()) + " brickmaps for " +
                   std::to_string(objects.size()) + " objects (one per object expected)");
+  if (objectSizes.size() != objects.size())
+    throwBadInput(call + ": " + std::to_string(objectSizes.size()) + " objectSizes for " + std::to_string(objects.size()) +
+                  " objects (a SceneData made by build and addObject holds one per object)");
   VoxelArrays arrays(*this);
   // The scene's slice of object o in array a: from its base to the next object's (or the array's end).
   auto sliceOf = [&](std::size_t o, int a) {
@@ -447,10 +452,7 @@ SceneDelta SceneData::updateObject(std::uint32_t object, std::span<const Brickma
     return end - baseOf(objects[o], a);
   };
   auto sameLayout = [&](std::size_t o, const Brickmap& bm) {
-    const Sizes sizes = sizesOf(bm);
-    for (int a = 0; a < kVoxelArrays; ++a)
-      if (sizes[a] != sliceOf(o, a)) return false;
-    return bm.regionOrigin() == glm::ivec3(objects[o].regionOrigin) &&
+    return sizesOf(bm) == objectSizes[o] && bm.regionOrigin() == glm::ivec3(objects[o].regionOrigin) &&
            bm.regionDims() == glm::ivec3(objects[o].regionDims);
   };
   for (std::size_t o = 0; o < brickmaps.size(); ++o) {
@@ -473,8 +475,13 @@ SceneDelta SceneData::updateObject(std::uint32_t object, std::span<const Brickma
 
   const bool inPlace = !edit.layoutChanged && !edit.rebuilt && sameLayout(object, bm);
   const bool last = std::size_t(object) + 1 == objects.size();
-  // The last object's arrays end where the scene's do: they grow (or shrink) without moving any other object.
-  const bool extend = !inPlace && last && !edit.rebuilt;
+  const Sizes used = objectSizes[object];
+  // Arrays that fit the object's slice change in place; the last object's arrays end where the scene's do, so
+  // they grow (or shrink) without moving any other object.
+  bool fits = !edit.rebuilt;
+  if (!last)
+    for (int a = 0; a < kVoxelArrays; ++a) fits = fits && sizes[a] <= sliceOf(object, a);
+  const bool extend = !inPlace && fits;
   gpu::ObjectRecord rec = objectRecordOf(bm);
   for (int a = 0; a < kVoxelArrays; ++a) setBase(rec, a, baseOf(objects[object], a));
 
@@ -482,7 +489,7 @@ SceneDelta SceneData::updateObject(std::uint32_t object, std::span<const Brickma
   std::vector<gpu::ObjectRecord> relaid;  // every object's record, when the arrays are laid out again
   Sizes totals{};
   if (extend) {
-    for (int a = 0; a < kVoxelArrays; ++a) totals[a] = baseOf(rec, a) + sizes[a];
+    for (int a = 0; a < kVoxelArrays; ++a) totals[a] = last ? baseOf(rec, a) + sizes[a] : arrays.size(a);
     checkIndexRange(totals, call);
   } else if (!inPlace) {
     relaid = objects;
@@ -491,7 +498,9 @@ SceneDelta SceneData::updateObject(std::uint32_t object, std::span<const Brickma
       const Sizes s = sizesOf(*brickmaps[o]);
       for (int a = 0; a < kVoxelArrays; ++a) {
         setBase(relaid[o], a, totals[a]);
-        totals[a] += s[a];
+        // The object that outgrew its slice gets headroom, so that its next edits grow in place.
+        const std::size_t room = o == object && !last ? s[a] / 2 + 64 : 0;
+        totals[a] += s[a] + room;
       }
     }
     checkIndexRange(totals, call);
@@ -538,12 +547,12 @@ SceneDelta SceneData::updateObject(std::uint32_t object, std::span<const Brickma
   if (inPlace || extend) {
     if (extend)
       for (int a = 0; a < kVoxelArrays; ++a) {
-        const std::size_t before = sliceOf(object, a);
+        const std::size_t before = used[a];
         arrays.resize(a, totals[a]);
-        // What the array gained is copied whatever the edit marked.
-        if (sizes[a] > before)
-          addRange(d, SceneArray(a), (baseOf(rec, a) + before) * kElementBytes[a],
-                   (sizes[a] - before) * kElementBytes[a]);
+        // What the array gained is copied whatever the edit marked; what it lost in a slice is zeroed.
+        if (sizes[a] != before && (sizes[a] > before || !last))
+          addRange(d, SceneArray(a), (baseOf(rec, a) + std::min(before, sizes[a])) * kElementBytes[a],
+                   (std::max(before, sizes[a]) - std::min(before, sizes[a])) * kElementBytes[a]);
       }
     // A grown region table moves the object's every brick code in a box table (and every code after it).
     if (extend &&
@@ -558,8 +567,13 @@ SceneDelta SceneData::updateObject(std::uint32_t object, std::span<const Brickma
     for (const SceneDirtyRange& r : d.ranges) {
       const int a = int(r.array);
       const std::size_t objectStart = baseOf(rec, a) * kElementBytes[a];
-      std::memcpy(arrays.bytes(a) + r.byteOffset,
-                  static_cast<const std::uint8_t*>(bytesOf(bm, a)) + (r.byteOffset - objectStart), r.byteSize);
+      // The brickmap's bytes, and zeros past its end (a slice it shrank in).
+      const std::size_t objectEnd = objectStart + sizes[a] * kElementBytes[a];
+      const std::size_t copied = r.byteOffset < objectEnd ? std::min(r.byteSize, objectEnd - r.byteOffset) : 0;
+      if (copied)
+        std::memcpy(arrays.bytes(a) + r.byteOffset,
+                    static_cast<const std::uint8_t*>(bytesOf(bm, a)) + (r.byteOffset - objectStart), copied);
+      if (copied < r.byteSize) std::memset(arrays.bytes(a) + r.byteOffset + copied, 0, r.byteSize - copied);
     }
     if (std::memcmp(&old, &rec, sizeof rec) != 0)
       addRange(d, SceneArray::Objects, std::size_t(object) * sizeof(gpu::ObjectRecord), sizeof(gpu::ObjectRecord));
@@ -568,6 +582,8 @@ SceneDelta SceneData::updateObject(std::uint32_t object, std::span<const Brickma
     relaid[object] = rec;
     for (int a = 0; a < kVoxelArrays; ++a) {
       arrays.resize(a, totals[a]);
+      // Headroom holds zeros, not what the old layout left there.
+      if (totals[a]) std::memset(arrays.bytes(a), 0, totals[a] * kElementBytes[a]);
       for (std::size_t o = 0; o < brickmaps.size(); ++o) {
         const std::size_t bytes = sizesOf(*brickmaps[o])[a] * kElementBytes[a];
         if (bytes)
@@ -580,6 +596,9 @@ SceneDelta SceneData::updateObject(std::uint32_t object, std::span<const Brickma
     d.voxelLayout = true;
   }
   objectAnchors[object] = anchorPoint;
+  if (!inPlace && !extend)
+    for (std::size_t o = 0; o < brickmaps.size(); ++o) objectSizes[o] = sizesOf(*brickmaps[o]);
+  objectSizes[object] = sizes;
   if (!edit.dirtyVoxels.empty()) d.editedBricks.push_back({object, bricksOf(edit.dirtyVoxels)});
   normalizeRanges(d.ranges);
 

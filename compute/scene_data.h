@@ -79,6 +79,10 @@ struct SceneData {
   Aabb worldBounds;  // union of all instance boxes; empty when the scene has no solid voxel
   // Per object: the brick-space point its instances' anchors are the images of (see above).
   std::vector<glm::dvec3> objectAnchors;
+  // Per object: how many elements of each voxel array (regionTable .. payload) its brickmap holds at its bases.
+  // Its slice, up to the next object's bases, may be longer: an object that outgrew its slice is given
+  // headroom when the arrays are laid out again, so that its next edits grow in place (zeros, read by no one).
+  std::vector<std::array<std::size_t, 6>> objectSizes;
   // Per instance slot: its brick-to-world map (identity for an empty slot), and whether an instance holds it.
   std::vector<glm::dmat4> instanceTransforms;
   std::vector<std::uint8_t> instanceSlots;
@@ -94,10 +98,11 @@ struct SceneData {
   // After brickmaps[object] was edited (Brickmap::setVoxel, fillBox, clearBox, compact; `edit` is what the
   // edit returned; several edits' results may be given one call each, in order). Without a layout change the
   // edit's dirty ranges are copied into the scene's arrays at the object's bases and reported as scene
-  // ranges. When the object's arrays changed size (edit.layoutChanged or edit.rebuilt), the last object's
-  // arrays are extended in place (the delta lists the copied ranges, and sets voxelLayout only when its
-  // region table grew, which moves its box-table codes); any other object's change, and a compaction, lays
-  // out every voxel array again from `brickmaps` and sets voxelLayout. The object's record takes its new voxel
+  // ranges. When the object's arrays changed size (edit.layoutChanged), they grow or shrink in place where
+  // they fit the object's slice (the last object's always do: the arrays end there): the delta lists the
+  // copied ranges, and sets voxelLayout only when the region table grew, which moves the object's box-table
+  // codes. An object that outgrew its slice, and a compaction, lay out every voxel array again from
+  // `brickmaps` (the grown object, unless last, with half its size again as headroom) and set voxelLayout. The object's record takes its new voxel
   // bounds, and every instance of it its new world box about its kept anchor; the world's bounds and the BVH
   // follow (Bvh::update). editedBricks gets the edit's dirty voxels in bricks, rounded outward.
   // Preconditions: object < objects.size(); brickmaps.size() == objects.size(), every brickmap but

@@ -497,7 +497,7 @@ TEST(FrameLoop, AStillFrameDoesNothingAndADigUploadsLittle) {
     const std::uint64_t before = tracer->bytesUploaded();
     game.scene.fillVoxels(game.ground, VoxelBox{{40, 4, 40}, {44, 8, 44}}, 0);
     const RenderedFrame& digFrame = renderer.render(game.scene, options);
-    const FrameStats& dig = digFrame.stats;
+    const FrameStats dig = digFrame.stats;  // a copy: the frames below reuse the renderer's
     EXPECT_LE(tracer->bytesUploaded() - before, 64u * 1024u) << backend << ": the scene update of a 4^3 hole";
     EXPECT_LT(dig.texelsTraced, dig.layerTexels / 20) << backend;
     // The Vulkan lighting pass keeps the layers, the G-buffer and the answers in place: the dig writes its traced
@@ -507,6 +507,36 @@ TEST(FrameLoop, AStillFrameDoesNothingAndADigUploadsLittle) {
     // Both lighting passes shade again only the pixels the hole touches (Vulkan: one invocation per listed
     // pixel), not the frame.
     EXPECT_LT(dig.pixelsShaded, std::uint64_t(digFrame.width) * std::uint64_t(digFrame.height) / 2) << backend;
+    // Vulkan resolves the G-buffer and spreads the answers on the device: a frame uploads its scene update, its
+    // pixel lists (4 bytes a listed pixel) and its records, not the texels or answers of the pixels it redoes.
+    const std::uint64_t digScene = tracer->bytesUploaded() - before;
+    EXPECT_LE(dig.bytesUploaded - digScene, 4 * (dig.primaryRays + dig.visibilityRays + dig.pixelsShaded) + 8192)
+        << backend;
+    // Blocks placed on the ground (not the scene's last object): the first outgrows the ground's arrays, which
+    // are laid out again with headroom; the next ones grow in place and upload only what they changed.
+    std::uint64_t blockUploads = 0;
+    for (int b = 0; b < 3; ++b) {
+      const std::uint64_t at = tracer->bytesUploaded();
+      game.scene.fillVoxels(game.ground, VoxelBox{{8 + 20 * b, 8, 60}, {24 + 20 * b, 24, 76}}, 2);
+      const FrameStats& block = renderer.render(game.scene, options).stats;
+      if (b > 0) {
+        EXPECT_LE(tracer->bytesUploaded() - at, 64u * 1024u) << backend << ": the scene update of block " << b;
+        blockUploads = std::max(blockUploads, block.bytesUploaded);
+      }
+    }
+    // A camera step redoes every pixel: it uploads no texel, receiver or answer of them (64 + 32 + 4 a light
+    // bytes each), less than 4 bytes a pixel in all.
+    CameraDesc camera = *game.scene.desc().camera;
+    camera.position += glm::vec3(0.25f, 0.0f, 0.1f);
+    game.scene.setCamera(camera);
+    const FrameStats& step = renderer.render(game.scene, options).stats;
+    const std::uint64_t pixels = std::uint64_t(options.width) * std::uint64_t(options.height);
+    EXPECT_EQ(step.primaryRays, pixels) << backend;
+    EXPECT_LT(step.bytesUploaded, 4 * pixels) << backend;
+    std::printf("%s: a 4^3 hole's frame uploaded %llu bytes (%llu of them its scene update), a 16^3 block's at most "
+                "%llu, a camera step's %llu\n",
+                backend.c_str(), (unsigned long long)dig.bytesUploaded, (unsigned long long)digScene,
+                (unsigned long long)blockUploads, (unsigned long long)step.bytesUploaded);
   }
 }
 

@@ -98,15 +98,33 @@ void expectDeltaCovers(const Snapshot& before, const SceneData& after, const Sce
   }
 }
 
-// The voxel arrays and object records are the brickmaps' dense concatenation, as SceneData::build lays it out.
+// The voxel arrays hold each brickmap's arrays at its object's bases (SceneData::objectSizes of them), in
+// object order without overlap, and zeros in any headroom after them; the object records are a fresh build's
+// but for the bases.
 void expectConcatenation(const SceneData& s, const std::vector<const Brickmap*>& brickmaps, const std::string& what) {
   SceneData fresh = SceneData::build(brickmaps, {});
-  EXPECT_TRUE(bytesOf(s.regionTable) == bytesOf(fresh.regionTable)) << what << ": regionTable";
-  EXPECT_TRUE(bytesOf(s.regions) == bytesOf(fresh.regions)) << what << ": regions";
-  EXPECT_TRUE(bytesOf(s.sectors) == bytesOf(fresh.sectors)) << what << ": sectors";
-  EXPECT_TRUE(bytesOf(s.bricks) == bytesOf(fresh.bricks)) << what << ": bricks";
-  EXPECT_TRUE(bytesOf(s.occupancy) == bytesOf(fresh.occupancy)) << what << ": occupancy";
-  EXPECT_TRUE(bytesOf(s.payload) == bytesOf(fresh.payload)) << what << ": payload";
+  ASSERT_EQ(s.objectSizes.size(), brickmaps.size()) << what;
+  auto expectSlices = [&](const auto& array, auto member, int a, const char* name) {
+    const std::size_t elementBytes = sizeof(array[0]);
+    std::vector<std::uint8_t> expected(array.size() * elementBytes, 0);
+    std::size_t end = 0;
+    for (std::size_t o = 0; o < brickmaps.size(); ++o) {
+      const auto source = ((*brickmaps[o]).*member)();
+      const std::size_t base = a < 4 ? s.objects[o].bases[a] : s.objects[o].bases2[a - 4];
+      EXPECT_EQ(s.objectSizes[o][std::size_t(a)], source.size()) << what << ": " << name << " of object " << o;
+      EXPECT_GE(base, end) << what << ": " << name << " of object " << o << " overlaps the one before";
+      ASSERT_LE((base + source.size()) * elementBytes, expected.size()) << what << ": " << name;
+      if (!source.empty()) std::memcpy(expected.data() + base * elementBytes, source.data(), source.size() * elementBytes);
+      end = base + source.size();
+    }
+    EXPECT_TRUE(bytesOf(array) == expected) << what << ": " << name;
+  };
+  expectSlices(s.regionTable, &Brickmap::regionTable, 0, "regionTable");
+  expectSlices(s.regions, &Brickmap::regions, 1, "regions");
+  expectSlices(s.sectors, &Brickmap::sectors, 2, "sectors");
+  expectSlices(s.bricks, &Brickmap::bricks, 3, "bricks");
+  expectSlices(s.occupancy, &Brickmap::occupancyWords, 4, "occupancy");
+  expectSlices(s.payload, &Brickmap::payloadWords, 5, "payload");
   ASSERT_EQ(s.objects.size(), fresh.objects.size()) << what;
   // The kept voxel box may be larger than a fresh build's tight one (SceneData::kBoxHeadroomVoxels): it holds
   // every voxel and stays inside the object's region table; every other field is the fresh record's.
@@ -126,6 +144,8 @@ void expectConcatenation(const SceneData& s, const std::vector<const Brickmap*>&
     }
     kept.voxelMin = tight.voxelMin;
     kept.voxelMax = tight.voxelMax;
+    kept.bases = tight.bases;
+    kept.bases2 = tight.bases2;
     EXPECT_EQ(std::memcmp(&kept, &tight, sizeof(gpu::ObjectRecord)), 0) << what << ": object " << o;
   }
 }
