@@ -88,7 +88,7 @@ gpu::InstanceRecord makeInstanceRecord(const glm::dmat4& brickToWorld, const Vox
 
 namespace {
 
-constexpr int kVoxelArrays = 6;  // SceneArray::RegionTable .. Payload, DirtyRange::Array order
+constexpr int kVoxelArrays = int(SceneData::kVoxelArrayCount);  // SceneArray::RegionTable .. Payload, DirtyRange::Array order
 constexpr std::size_t kElementBytes[kVoxelArrays] = {sizeof(std::uint32_t), sizeof(gpu::Region),
                                                      sizeof(gpu::Sector),   sizeof(gpu::Brick),
                                                      sizeof(std::uint32_t), sizeof(std::uint32_t)};
@@ -498,8 +498,9 @@ SceneDelta SceneData::updateObject(std::uint32_t object, std::span<const Brickma
       const Sizes s = sizesOf(*brickmaps[o]);
       for (int a = 0; a < kVoxelArrays; ++a) {
         setBase(relaid[o], a, totals[a]);
-        // The object that outgrew its slice gets headroom, so that its next edits grow in place.
-        const std::size_t room = o == object && !last ? s[a] / 2 + 64 : 0;
+        // The object that outgrew its slice gets headroom, so that its next edits grow in place; the others are
+        // laid out densely (headroom kept for every object would add up past a device's binding limits).
+        const std::size_t room = o == object && !edit.rebuilt && !last ? s[a] / 2 + 64 : 0;
         totals[a] += s[a] + room;
       }
     }

@@ -82,7 +82,8 @@ struct SceneData {
   // Per object: how many elements of each voxel array (regionTable .. payload) its brickmap holds at its bases.
   // Its slice, up to the next object's bases, may be longer: an object that outgrew its slice is given
   // headroom when the arrays are laid out again, so that its next edits grow in place (zeros, read by no one).
-  std::vector<std::array<std::size_t, 6>> objectSizes;
+  static constexpr std::size_t kVoxelArrayCount = 6;
+  std::vector<std::array<std::size_t, kVoxelArrayCount>> objectSizes;
   // Per instance slot: its brick-to-world map (identity for an empty slot), and whether an instance holds it.
   std::vector<glm::dmat4> instanceTransforms;
   std::vector<std::uint8_t> instanceSlots;
@@ -102,7 +103,8 @@ struct SceneData {
   // they fit the object's slice (the last object's always do: the arrays end there): the delta lists the
   // copied ranges, and sets voxelLayout only when the region table grew, which moves the object's box-table
   // codes. An object that outgrew its slice, and a compaction, lay out every voxel array again from
-  // `brickmaps` (the grown object, unless last, with half its size again as headroom) and set voxelLayout. The object's record takes its new voxel
+  // `brickmaps` and set voxelLayout: the one that outgrew its slice (unless last) gets half its size again as
+  // headroom, the others (and a compacted one) none. The object's record takes its new voxel
   // bounds, and every instance of it its new world box about its kept anchor; the world's bounds and the BVH
   // follow (Bvh::update). editedBricks gets the edit's dirty voxels in bricks, rounded outward.
   // Preconditions: object < objects.size(); brickmaps.size() == objects.size(), every brickmap but

@@ -52,13 +52,17 @@ GBufferTables gbufferTables(const Scene& scene) {
 }
 
 void resolveGBuffer(const Scene& scene, const CameraFrame& camera, std::span<const gpu::RayHit> hits, GBuffer& g) {
+  resolveGBuffer(gbufferTables(scene), camera, hits, g);
+}
+
+void resolveGBuffer(const GBufferTables& tables, const CameraFrame& camera, std::span<const gpu::RayHit> hits,
+                    GBuffer& g) {
   const std::size_t count = std::size_t(camera.width) * std::size_t(camera.height);
   if (hits.size() != count)
     throwBadInput("G-buffer: " + std::to_string(hits.size()) + " hits for " + std::to_string(count) + " pixels");
   g.width = camera.width;
   g.height = camera.height;
   g.texels.resize(count);
-  const GBufferTables tables = gbufferTables(scene);
   const gpu::CameraRays rays = cameraRaysOf(camera);
   tbb::parallel_for(std::size_t(0), count, [&](std::size_t i) {
     g.texels[i] = resolveHit(tables, rays, std::uint32_t(i), hits[i]);
@@ -67,10 +71,14 @@ void resolveGBuffer(const Scene& scene, const CameraFrame& camera, std::span<con
 
 void resolveGBufferPixels(const Scene& scene, const CameraFrame& camera, std::span<const gpu::RayHit> hits,
                           std::span<const std::uint32_t> pixels, GBuffer& g) {
+  resolveGBufferPixels(gbufferTables(scene), camera, hits, pixels, g);
+}
+
+void resolveGBufferPixels(const GBufferTables& tables, const CameraFrame& camera, std::span<const gpu::RayHit> hits,
+                          std::span<const std::uint32_t> pixels, GBuffer& g) {
   if (hits.size() != pixels.size() || g.width != camera.width || g.height != camera.height ||
       g.texels.size() != std::size_t(camera.width) * std::size_t(camera.height))
     throwBadInput("G-buffer: hits, pixels and the G-buffer disagree on sizes");
-  const GBufferTables tables = gbufferTables(scene);
   const gpu::CameraRays rays = cameraRaysOf(camera);
   for (std::uint32_t p : pixels)
     if (p >= g.texels.size()) throwBadInput("G-buffer: pixel " + std::to_string(p) + " outside the frame");

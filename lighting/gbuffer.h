@@ -37,11 +37,16 @@ GBuffer traceGBuffer(const Scene& scene, const CameraFrame& camera, Tracer& trac
 // (its storage reused: a frame loop allocates nothing here). Each pixel's ray is made again from the camera
 // (cameraRaysOf, vsCameraRay): the ray that was traced, bit for bit.
 void resolveGBuffer(const Scene& scene, const CameraFrame& camera, std::span<const gpu::RayHit> hits, GBuffer& g);
+// The same with the scene's tables made already (gbufferTables).
+void resolveGBuffer(const GBufferTables& tables, const CameraFrame& camera, std::span<const gpu::RayHit> hits,
+                    GBuffer& g);
 
 // Resolves the closest hits of the given pixels' primary rays (hits[k] that of pixels[k]) into those texels of
 // g, leaving the others as they are. Preconditions: g sized for the camera; hits and pixels of one length
 // (else vs::Error(BadInput)).
 void resolveGBufferPixels(const Scene& scene, const CameraFrame& camera, std::span<const gpu::RayHit> hits,
+                          std::span<const std::uint32_t> pixels, GBuffer& g);
+void resolveGBufferPixels(const GBufferTables& tables, const CameraFrame& camera, std::span<const gpu::RayHit> hits,
                           std::span<const std::uint32_t> pixels, GBuffer& g);
 
 // The visibility rays of a frame's lights (compute/shared/visibility_rays.h): the record and one light record

@@ -732,11 +732,14 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   // Per-frame arrays keep their storage across frames: fresh pages of a whole frame's rays and hits cost more
   // to fault in than to fill.
   std::vector<gpu::RayHit>& hits = s.hits;
+  // What the resolve reads besides the hits, made once for the host's resolve and the device's.
+  GBufferTables tables;
+  if (allPixels || !boxes.empty()) tables = gbufferTables(scene);
   if (allPixels) {
     hits.resize(pixelCount);
     const TraceStats ts = tracer_.traceCamera(cameraRecord, {}, hits);
     stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
-    resolveGBuffer(scene, camera, hits, frame.gbuffer);
+    resolveGBuffer(tables, camera, hits, frame.gbuffer);
     stats.primaryRays = pixelCount;
   } else if (!boxes.empty()) {
     for (const Aabb& b : boxes) markBoxPixels(camera, b, marks);
@@ -745,7 +748,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
       hits.resize(primaryPixels.size());
       const TraceStats ts = tracer_.traceCamera(cameraRecord, primaryPixels, hits);
       stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
-      resolveGBufferPixels(scene, camera, hits, primaryPixels, frame.gbuffer);
+      resolveGBufferPixels(tables, camera, hits, primaryPixels, frame.gbuffer);
       stats.primaryRays = primaryPixels.size();
     }
   }
@@ -755,7 +758,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
     // The same hits resolved on the device into the lighting pass's G-buffer, which then reads it in place: the
     // host's copy above serves the marking below and the caller.
     LightingTraffic traffic;
-    lightingPass().resolveGBuffer(vulkan->lastCameraTrace(), gbufferTables(scene), frame.gbuffer, &traffic);
+    lightingPass().resolveGBuffer(vulkan->lastCameraTrace(), tables, frame.gbuffer, &traffic);
     stats.bytesUploaded += traffic.uploaded;
     stats.dispatches += traffic.dispatches;
   }

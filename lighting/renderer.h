@@ -143,7 +143,7 @@ class FrameRenderer {
   // The G-buffer the Vulkan lighting pass reads, read back from the device now: the frame's primary hits
   // resolved there (vsResolveHit), which RenderedFrame::gbuffer, resolved from the same hits on the host, equals
   // bit for bit. Preconditions: a Vulkan tracer (else vs::Error(BadInput)); a last frame that completed and whose
-  // lighting pass holds its G-buffer (else vs::Error(Runtime)).
+  // lighting pass holds its G-buffer whole (else vs::Error).
   GBuffer deviceGBuffer() const;
   // Makes the next frame redo everything (a benchmark's forced full frame).
   void invalidateLayers();

@@ -152,7 +152,8 @@ struct VulkanLighting::Impl {
   std::array<vk::Buffer, gpu::VS_LIGHTING_BINDING_COUNT> buffers;
   // The view records' buffer as the shader reads it (VS_LIGHTING_BINDING_VIEWS), made again with the buffer.
   vk::UniqueBufferView viewTexels;
-  // A buffer was replaced outside sizeFor (the resolve's G-buffer): the set is written again before it is used.
+  // A buffer was replaced outside sizeFor (the resolve's G-buffer, the spread's answers): the set is written
+  // again before it is used.
   bool descriptorsStale = false;
 
   // Each helper pass's descriptor set (LightingPipelines::HelperPass), allocated with its first run.
@@ -385,16 +386,14 @@ struct VulkanLighting::Impl {
                     std::to_string(current.width) + "x" + std::to_string(current.height) + " pixels");
     if (trace.rays == 0 || !trace.hits || !trace.camera)
       throwBadInput("lighting: no camera trace's hits to resolve (VulkanTracer::lastCameraTrace right after traceCamera)");
-    if (trace.rays > pixels)
-      throwBadInput("lighting: " + std::to_string(trace.rays) + " hits to resolve into " + std::to_string(pixels) +
-                    " pixels");
+    if (trace.pixels != pixels || trace.rays > pixels)
+      throwBadInput("lighting: a camera trace of " + std::to_string(trace.rays) + " rays over " +
+                    std::to_string(trace.pixels) + " pixels to resolve into a G-buffer of " + std::to_string(pixels));
     const VkDeviceSize bytes = pixels * sizeof(gpu::GBufferTexel);
-    if (reserve(gpu::VS_LIGHTING_BINDING_GBUFFER, bytes)) {
-      // A new buffer: the lighting set must bind it, and the pass holds no frame in it.
-      descriptorsStale = true;
-      heldSizes.clear();
-    }
-    if (gbufferHeld != pixels && trace.rays != pixels) {
+    // A new buffer (the frame outgrew every earlier one, so the next shading call, seeing other sizes than the
+    // held frame's, writes and shades it whole): the lighting set must bind it.
+    if (reserve(gpu::VS_LIGHTING_BINDING_GBUFFER, bytes)) descriptorsStale = true;
+    if (gbufferHeld != pixels && trace.listed) {
       // The listed pixels would update a G-buffer the pass does not hold whole: the host's copy goes up whole.
       std::memcpy(buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].mapped, current.texels.data(), bytes);
       traffic.uploaded += bytes;
@@ -404,12 +403,12 @@ struct VulkanLighting::Impl {
     }
     const VkDeviceSize receiverBytes = pixels * sizeof(gpu::VisibilityReceiver);
     if (!receivers.buffer || receivers.size < receiverBytes) {
+      receiversHeld = 0;
       receivers = vk::Buffer{};
       receivers = context.createDeviceBuffer(receiverBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-      receiversHeld = 0;
     }
     // A listed trace updates receivers held whole; a whole one makes them whole.
-    const bool receiversWhole = trace.rays == pixels || receiversHeld == pixels;
+    const bool receiversWhole = !trace.listed || receiversHeld == pixels;
     gbufferHeld = 0;  // until the resolve has run
     receiversHeld = 0;
     const LightingPipelines::HelperPass& pass = pipelines->helper(
@@ -450,6 +449,7 @@ struct VulkanLighting::Impl {
   // visible to later shaders and host reads.
   void runHelper(const LightingPipelines::HelperPass& pass, HelperSet& helperSet, std::span<const VkBuffer> bound,
                  const void* push, std::uint32_t pushBytes, std::uint64_t invocations, std::uint32_t groupSize) {
+    if (invocations == 0) throwBadInput("lighting: a helper pass over no invocations");
     VkDevice dev = context.device();
     if (!helperSet.pool) {
       const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, std::uint32_t(bound.size())};
@@ -520,14 +520,12 @@ struct VulkanLighting::Impl {
     std::uint32_t traced = 0;
     for (int j : slots)
       if (j >= 0) traced = std::max(traced, std::uint32_t(j) + 1);
-    if (trace.receivers > pixels || (trace.receivers > 0 && trace.lights != traced))
-      throwBadInput("lighting: a visibility trace of " + std::to_string(trace.receivers) + " receivers and " +
-                    std::to_string(trace.lights) + " lights to spread over " + std::to_string(pixels) + " pixels and " +
-                    std::to_string(traced) + " traced lights");
-    if (reserve(gpu::VS_LIGHTING_BINDING_VISIBILITY, current.size() * sizeof(std::uint32_t))) {
-      descriptorsStale = true;
-      heldSizes.clear();
-    }
+    if (trace.receivers > 0 && (trace.pixels != pixels || trace.receivers > pixels || trace.lights != traced))
+      throwBadInput("lighting: a visibility trace of " + std::to_string(trace.receivers) + " receivers of " +
+                    std::to_string(trace.pixels) + " pixels toward " + std::to_string(trace.lights) +
+                    " lights to spread over " + std::to_string(pixels) + " pixels and " + std::to_string(traced) +
+                    " traced lights");
+    if (reserve(gpu::VS_LIGHTING_BINDING_VISIBILITY, current.size() * sizeof(std::uint32_t))) descriptorsStale = true;
     const bool whole = trace.receivers == pixels && !trace.listed;
     if (trace.receivers == 0 || (!whole && visibilityHeld != current.size())) {
       // No trace on the device to spread, or one that would update rows the pass does not hold whole: the
@@ -544,8 +542,9 @@ struct VulkanLighting::Impl {
     std::memcpy(spreadSlots.mapped, slots.data(), slots.size_bytes());
     traffic.uploaded += slots.size_bytes();
     gpu::SpreadPush push{};
-    // The pixel list follows the trace's record (12 words) and its lights (8 words each).
-    const std::uint32_t listStart = trace.listed ? 12u + 8u * trace.lights : 0u;
+    // The pixel list follows the trace's record and its lights.
+    const std::uint32_t listStart =
+        trace.listed ? gpu::VS_VISIBILITY_RECORD_WORDS + gpu::VS_VISIBILITY_LIGHT_WORDS * trace.lights : 0u;
     push.counts = glm::uvec4(std::uint32_t(trace.receivers), trace.lights, std::uint32_t(lights), listStart);
     const std::array<VkBuffer, gpu::VS_SPREAD_BINDING_COUNT> bound{
         trace.answers, trace.source, spreadSlots.get(), buffers[gpu::VS_LIGHTING_BINDING_VISIBILITY].get()};
@@ -634,23 +633,24 @@ struct VulkanLighting::Impl {
       readResults(changes.readColor ? &out.color : nullptr, changes.readTerms ? &out.shadowTerms : nullptr, traffic);
       return;
     }
+    const std::size_t perPixel = rayVisibility.size() / std::max<std::size_t>(1, pixels);
+    // Where the pass holds no whole G-buffer or answers of this frame (a resolve or spread that failed half-way),
+    // the host's go up whole; else the device's are in place (gbufferOnDevice, visibilityOnDevice) or the
+    // changed pixels' are written.
+    const bool gbufferRows = !changes.gbufferOnDevice && gbufferHeld == pixels;
+    const bool visibilityRows = !changes.visibilityOnDevice && visibilityHeld == rayVisibility.size();
+    if (gbufferHeld != pixels) writeGBuffer(gbuffer, false, traffic);
+    if (visibilityHeld != rayVisibility.size()) writeVisibility(rayVisibility, false, traffic);
+    if (gbufferRows && !changes.inputPixels.empty()) receiversHeld = 0;
     auto* g = static_cast<gpu::GBufferTexel*>(buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].mapped);
     auto* v = static_cast<std::uint32_t*>(buffers[gpu::VS_LIGHTING_BINDING_VISIBILITY].mapped);
-    const std::size_t perPixel = rayVisibility.size() / std::max<std::size_t>(1, pixels);
-    // Texels the device resolved are in place already; where it holds no whole G-buffer, the host's goes up.
-    const bool gbufferInPlace = changes.gbufferOnDevice && gbufferHeld == pixels;
-    if (changes.gbufferOnDevice && !gbufferInPlace) writeGBuffer(gbuffer, false, traffic);
-    if (!changes.gbufferOnDevice && !changes.inputPixels.empty()) receiversHeld = 0;
-    // Likewise the answers the device spread.
-    const bool visibilityInPlace = changes.visibilityOnDevice && visibilityHeld == rayVisibility.size();
-    if (changes.visibilityOnDevice && !visibilityInPlace) writeVisibility(rayVisibility, false, traffic);
     for (std::uint32_t p : changes.inputPixels) {
-      if (!changes.gbufferOnDevice) g[p] = gbuffer.texels[p];
-      if (!changes.visibilityOnDevice)
+      if (gbufferRows) g[p] = gbuffer.texels[p];
+      if (visibilityRows)
         for (std::size_t l = 0; l < perPixel; ++l) v[p * perPixel + l] = rayVisibility[p * perPixel + l];
     }
-    traffic.uploaded += changes.inputPixels.size() * ((changes.gbufferOnDevice ? 0 : sizeof(gpu::GBufferTexel)) +
-                                                      (changes.visibilityOnDevice ? 0 : perPixel * sizeof(std::uint32_t)));
+    traffic.uploaded += changes.inputPixels.size() * ((gbufferRows ? sizeof(gpu::GBufferTexel) : 0) +
+                                                      (visibilityRows ? perPixel * sizeof(std::uint32_t) : 0));
     // Only the listed pixels are shaded again: every other pixel's inputs are the last frame's, and so are the
     // colour and terms the buffers keep for it. A list of most of the frame costs more than the frame (one more
     // read per pixel, scattered), and one too long for a row of workgroups cannot be dispatched as one.

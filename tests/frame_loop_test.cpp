@@ -371,6 +371,47 @@ TEST(FrameLoop, AnInvalidationOneTexelTooSmallIsCaught) {
 // On Vulkan a frame that asks for no image reads none of it back: a pan reads back exactly the colour and terms
 // fewer than the same pan that asks; a still frame that asks after it reads the whole image, which equals the
 // other renderer's. The CPU backend fills both whatever is asked.
+// A kept renderer whose frames outgrow the lighting pass's buffers (a larger frame; in ray-traced mode a light
+// beyond the most seen so far) keeps rendering, and equals a new renderer, on both backends.
+TEST(FrameLoop, GrownFramesAndAddedLightsKeepRendering) {
+  for (const std::string backend : {"cpu", "vulkan"}) {
+    Game game("frame_loop_grown_" + backend, 5);
+    std::unique_ptr<Tracer> kept = makeTracer(backend), fresh = makeTracer(backend, backend == "vulkan");
+    FrameRenderer renderer(*kept);
+    auto expectFresh = [&](const RenderOptions& options, const std::string& step) {
+      const RenderedFrame& frame = renderer.render(game.scene, options);
+      FrameRenderer other(*fresh);
+      const RenderedFrame& truth = other.render(game.scene, options);
+      EXPECT_TRUE(test::sameBytes(frame.gbuffer.texels, truth.gbuffer.texels)) << backend << ", " << step;
+      EXPECT_TRUE(test::sameBytes(frame.color, truth.color)) << backend << ", " << step;
+      EXPECT_TRUE(test::sameBytes(frame.shadowTerms, truth.shadowTerms)) << backend << ", " << step;
+    };
+    expectFresh(smallFrame(96, 54), "first frame");
+    game.scene.fillVoxels(game.ground, VoxelBox{{40, 4, 40}, {44, 8, 44}}, 0);
+    expectFresh(smallFrame(96, 54), "a hole");
+    EXPECT_NO_THROW(expectFresh(smallFrame(), "a larger frame")) << backend;
+    RenderOptions raytraced = smallFrame();
+    raytraced.shadows = ShadowSource::Raytraced;
+    expectFresh(raytraced, "ray-traced");
+    LightDesc spot;
+    spot.type = LightType::Spot;
+    spot.position = glm::vec3(20.0f, 15.0f, 35.0f);
+    spot.direction = glm::vec3(0.1f, -1.0f, 0.05f);
+    spot.range = 40.0f;
+    spot.outerConeDeg = 35.0f;
+    spot.intensity = 300.0f;
+    spot.shadow = ShadowDesc{};
+    spot.shadow->resolution = 64;
+    spot.name = "added-spot";
+    game.scene.addLight(spot);
+    EXPECT_NO_THROW(expectFresh(raytraced, "a light added, ray-traced")) << backend;
+    EXPECT_NO_THROW(expectFresh(smallFrame(), "with maps again")) << backend;
+    if (VulkanTracer* v = kept->vulkan()) {
+      EXPECT_TRUE(v->validationMessages().empty()) << v->validationMessages().front();
+    }
+  }
+}
+
 TEST(FrameLoop, AFrameThatAsksForNoImageReadsNoneBack) {
   Game game("frame_loop_readback", 3);
   std::unique_ptr<Tracer> tracer = makeTracer("vulkan");

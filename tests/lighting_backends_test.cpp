@@ -175,8 +175,14 @@ TEST(LightingBackends, TheDeviceResolvesTheGBufferAndSpreadsTheAnswersAsTheHost)
   bad.buffer = VK_NULL_HANDLE;
   answers.resize(pixels * lights.size());
   EXPECT_THROW(vulkan.traceVisibility(setup.frame, setup.lights, bad, answers), Error);
-  // A trace that left no camera hits, and a G-buffer of the wrong size, are refused.
+  // A trace that left no camera hits, and a G-buffer of another size than the trace's camera, are refused.
   EXPECT_THROW(lighting.resolveGBuffer(vulkan.lastCameraTrace(), gbufferTables(scene), mixed), Error);
+  tracer->traceCamera(cameraRaysOf(camera), {}, hits);
+  GBuffer other;
+  other.width = camera.width / 2;
+  other.height = camera.height;
+  other.texels.resize(std::size_t(other.width) * std::size_t(other.height));
+  EXPECT_THROW(lighting.resolveGBuffer(vulkan.lastCameraTrace(), gbufferTables(scene), other), Error);
   EXPECT_TRUE(vulkan.validationMessages().empty()) << vulkan.validationMessages().front();
 }
 

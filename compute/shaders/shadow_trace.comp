@@ -183,8 +183,10 @@ void main() {
     VisibilityLight light = VisibilityLight(visibilityEntries[l], visibilityEntries[l + 1u]);
     VisibilityReceiver receiver;
     if (visibility.counts.z != 0u) {
-      // The words after the record (12) and the lights (8 each).
-      uint pixel = visibility.counts.w != 0u ? visibilityWords[12u + 8u * lightCount + receiverIndex] : receiverIndex;
+      // The words after the record and the lights.
+      uint pixel = visibility.counts.w != 0u
+                       ? visibilityWords[VS_VISIBILITY_RECORD_WORDS + VS_VISIBILITY_LIGHT_WORDS * lightCount + receiverIndex]
+                       : receiverIndex;
       receiver = deviceReceivers[pixel];
     } else {
       uint r = 2u * (lightCount + receiverIndex);

@@ -50,6 +50,10 @@ struct VisibilityRays {
                    // buffer lists the receivers' pixels after the lights (else receiver k is pixel k)
 };
 
+// The record and a light in 4-byte words: where a trace's listed pixels start in its buffer.
+const uint VS_VISIBILITY_RECORD_WORDS = 12u;
+const uint VS_VISIBILITY_LIGHT_WORDS = 8u;
+
 const float VS_VISIBILITY_TOWARD_POINT = 0.0f;      // the ray ends at the light's position
 const float VS_VISIBILITY_TOWARD_DIRECTION = 1.0f;  // the ray leaves the world box along a direction
 
@@ -110,6 +114,9 @@ VS_LAYOUT_CHECK(VisibilityRays, 48);
 VS_OFFSET_CHECK(VisibilityRays, boundsMax, 16);
 VS_OFFSET_CHECK(VisibilityRays, counts, 32);
 VS_LAYOUT_CHECK(VisibilityLight, 32);
+static_assert(sizeof(VisibilityRays) == 4 * VS_VISIBILITY_RECORD_WORDS &&
+                  sizeof(VisibilityLight) == 4 * VS_VISIBILITY_LIGHT_WORDS,
+              "VS_VISIBILITY_*_WORDS: the record's and a light's size in words");
 VS_OFFSET_CHECK(VisibilityLight, kind, 16);
 VS_LAYOUT_CHECK(VisibilityReceiver, 32);
 VS_OFFSET_CHECK(VisibilityReceiver, normal, 16);

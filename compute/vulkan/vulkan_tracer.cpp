@@ -178,6 +178,8 @@ struct VulkanTracer::Impl {
   // receivers in.
   vk::Buffer rayBuffer, hitBuffer, occludedBuffer, cameraBuffer, visibilityBuffer;
   std::uint64_t cameraTraceRays = 0;  // the rays of the camera trace whose results hitBuffer holds (lastCameraTrace)
+  std::uint64_t cameraTracePixels = 0;
+  bool cameraTraceListed = false;
   VisibilityTraceBuffers visibilityTrace;  // the last trace from DeviceReceivers (lastVisibilityTrace)
   VkBuffer deviceReceivers = VK_NULL_HANDLE;  // bound at VS_BINDING_RECEIVERS for the call under way (else the placeholder)
 
@@ -1158,6 +1160,8 @@ TraceStats VulkanTracer::traceCamera(const gpu::CameraRays& camera, std::span<co
   const TraceStats stats =
       impl_->traceRays(gpu::RayKind::Camera, {}, hits.data(), sizeof(gpu::RayHit), &record, pixels, count);
   impl_->cameraTraceRays = count;
+  impl_->cameraTracePixels = std::uint64_t(camera.size.x) * std::uint64_t(camera.size.y);
+  impl_->cameraTraceListed = !pixels.empty();
   return stats;
 }
 TraceStats VulkanTracer::traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
@@ -1169,15 +1173,19 @@ TraceStats VulkanTracer::traceVisibility(const gpu::VisibilityRays& frame, std::
   if (receivers.buffer == VK_NULL_HANDLE) throwBadInput("traceVisibility: DeviceReceivers.buffer: none");
   const std::uint64_t taken = receivers.pixels.empty() ? receivers.pixelCount : receivers.pixels.size();
   const std::uint64_t count = taken * lights.size();
-  if (count > std::numeric_limits<std::uint32_t>::max() || receivers.pixelCount > std::numeric_limits<std::uint32_t>::max())
+  if (receivers.pixelCount > std::numeric_limits<std::uint32_t>::max())
+    throwBadInput("traceVisibility: DeviceReceivers.pixelCount: " + std::to_string(receivers.pixelCount) +
+                  ", more than 2^32 pixels");
+  if (count > std::numeric_limits<std::uint32_t>::max())
     throwBadInput("traceVisibility: " + std::to_string(taken) + " receivers x " + std::to_string(lights.size()) +
                   " lights: more than 2^32 rays in one call");
   if (occluded.size() != count)
     throwBadInput("traceVisibility: " + std::to_string(occluded.size()) + " answers for " + std::to_string(count) +
                   " rays (receivers x lights)");
-  for (std::uint32_t p : receivers.pixels)
-    if (p >= receivers.pixelCount)
-      throwBadInput("traceVisibility: DeviceReceivers.pixels: pixel " + std::to_string(p) + " of " +
+  for (std::size_t k = 0; k < receivers.pixels.size(); ++k)
+    if (receivers.pixels[k] >= receivers.pixelCount)
+      throwBadInput("traceVisibility: DeviceReceivers.pixels[" + std::to_string(k) + "] = " +
+                    std::to_string(receivers.pixels[k]) + " is not below pixelCount " +
                     std::to_string(receivers.pixelCount));
   gpu::VisibilityRays record = frame;
   record.counts = glm::uvec4(std::uint32_t(lights.size()), std::uint32_t(taken), 1u, receivers.pixels.empty() ? 0u : 1u);
@@ -1198,13 +1206,14 @@ TraceStats VulkanTracer::traceVisibility(const gpu::VisibilityRays& frame, std::
                        sizeof record + lights.size_bytes() + receivers.pixels.size_bytes(), write);
   if (count > 0)
     impl_->visibilityTrace = {impl_->occludedBuffer.get(), impl_->visibilityBuffer.get(), taken,
-                              std::uint32_t(lights.size()), !receivers.pixels.empty()};
+                              receivers.pixelCount, std::uint32_t(lights.size()), !receivers.pixels.empty()};
   return stats;
 }
 VisibilityTraceBuffers VulkanTracer::lastVisibilityTrace() const { return impl_->visibilityTrace; }
 CameraTraceBuffers VulkanTracer::lastCameraTrace() const {
   if (impl_->cameraTraceRays == 0) return {};
-  return {impl_->hitBuffer.get(), impl_->cameraBuffer.get(), impl_->cameraTraceRays};
+  return {impl_->hitBuffer.get(), impl_->cameraBuffer.get(), impl_->cameraTraceRays, impl_->cameraTracePixels,
+          impl_->cameraTraceListed};
 }
 TraceStats VulkanTracer::traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
                                          std::span<const gpu::VisibilityReceiver> receivers,

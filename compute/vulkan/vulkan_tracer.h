@@ -99,6 +99,8 @@ struct CameraTraceBuffers {
   VkBuffer hits = VK_NULL_HANDLE;
   VkBuffer camera = VK_NULL_HANDLE;
   std::uint64_t rays = 0;  // 0: no camera trace's results are held
+  std::uint64_t pixels = 0;  // the camera's pixels (width x height)
+  bool listed = false;       // the rays are the listed pixels' (else every pixel's, in order)
 };
 
 // Visibility receivers that a pass on the tracer's device made, one VisibilityReceiver per pixel in a storage
@@ -117,6 +119,7 @@ struct VisibilityTraceBuffers {
   VkBuffer answers = VK_NULL_HANDLE;
   VkBuffer source = VK_NULL_HANDLE;
   std::uint64_t receivers = 0;  // 0: no such trace's results are held
+  std::uint64_t pixels = 0;     // DeviceReceivers::pixelCount
   std::uint32_t lights = 0;
   bool listed = false;  // the receivers are the listed pixels' (else pixel k's)
 };

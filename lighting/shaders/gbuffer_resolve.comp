@@ -31,13 +31,20 @@ void main() {
   if (index >= push.counts.x) return;
   uint pixel = camera.size.z == 0u ? index : cameraPixels[index];
   RayHit h = hits[index];
-  // The tracer names only instances of the scene it traced; a record past the table (which the host's resolve
-  // refuses) would be a miss here rather than a read out of bounds.
-  if (h.hit != 0u && h.instance >= push.counts.y) h.hit = 0u;
-  GBufferInstance inst = instances[h.hit != 0u ? h.instance : 0u];
-  int slot = vsPaletteSlot(inst, h.material);
-  vec3 albedo = slot >= 0 ? vec3(palette[slot]) : vec3(VS_MISSING_ALBEDO);
-  GBufferTexel texel = vsResolveHit(camera, pixel, h, inst, albedo);
+  GBufferTexel texel;
+  // A miss reads no table (a scene without instances has none). The tracer names only instances of the scene it
+  // traced; a record past the table (which the host's resolve refuses) would be a miss here rather than a read
+  // out of bounds.
+  if (h.hit == 0u || h.instance >= push.counts.y) {
+    h.hit = 0u;
+    texel = vsResolveHit(camera, pixel, h, GBufferInstance(vec4[6](vec4(0.0f), vec4(0.0f), vec4(0.0f), vec4(0.0f),
+                                                                    vec4(0.0f), vec4(0.0f)), uvec4(0u)), vec3(0.0f));
+  } else {
+    GBufferInstance inst = instances[h.instance];
+    int slot = vsPaletteSlot(inst, h.material);
+    vec3 albedo = slot >= 0 ? vec3(palette[slot]) : vec3(VS_MISSING_ALBEDO);
+    texel = vsResolveHit(camera, pixel, h, inst, albedo);
+  }
   gbuffer[pixel] = texel;
   receivers[pixel] = vsReceiverOf(texel);
 }
