@@ -23,6 +23,22 @@ VkDescriptorType lightingDescriptorType(std::uint32_t b) {
   return b == gpu::VS_LIGHTING_BINDING_VIEWS ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
 }
 
+// One memory barrier: the writes of `srcAccess` at `srcStages` made available to `dstAccess` at `dstStages`.
+void memoryBarrier(const VulkanContext& context, VkCommandBuffer cmd, VkPipelineStageFlags srcStages,
+                   VkAccessFlags srcAccess, VkPipelineStageFlags dstStages, VkAccessFlags dstAccess) {
+  auto barrier = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
+  barrier.srcAccessMask = srcAccess;
+  barrier.dstAccessMask = dstAccess;
+  context.functions().vkCmdPipelineBarrier(cmd, srcStages, dstStages, 0, 1, &barrier, 0, nullptr, 0, nullptr);
+}
+
+// The host's and earlier shaders' writes (the trace's, the helper passes'), before a pass's shaders read them.
+void barrierBeforeShaders(const VulkanContext& context, VkCommandBuffer cmd) {
+  memoryBarrier(context, cmd, VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                VK_ACCESS_HOST_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                VK_ACCESS_SHADER_READ_BIT);
+}
+
 // The lighting pass's pipelines on one device, compiled once and shared by every VulkanLighting on it
 // (VulkanContext::shared): a renderer made for one frame, or a second renderer, compiles nothing again, where
 // one compile of the general shader takes a few hundred milliseconds on llvmpipe.
@@ -484,21 +500,15 @@ struct VulkanLighting::Impl {
     const std::uint32_t groupsY = std::uint32_t((groups + groupsX - 1) / groupsX);
     const VkPipelineLayout layout = pass.layout.get();
     context.submitAndWait([&](VkCommandBuffer cmd) {
-      auto before = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
-      before.srcAccessMask = VK_ACCESS_HOST_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-      before.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
-      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                                               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &before, 0, nullptr, 0, nullptr);
+      barrierBeforeShaders(context, cmd);
       context.functions().vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pass.pipeline.get());
       context.functions().vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &helperSet.set, 0, nullptr);
       context.functions().vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes, push);
       context.functions().vkCmdDispatch(cmd, groupsX, groupsY, 1);
-      auto after = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
-      after.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-      after.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT;
-      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                                               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
-                                               &after, 0, nullptr, 0, nullptr);
+      // Its writes to the later passes and to host reads.
+      memoryBarrier(context, cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                    VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                    VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
     });
   }
 
@@ -709,11 +719,7 @@ struct VulkanLighting::Impl {
     context.submitAndWait([&](VkCommandBuffer cmd) {
       // The host's writes above (and the trace's, into the store, and the resolve's, into the G-buffer), before
       // the shaders read them.
-      auto toShader = vk::make<VkMemoryBarrier>(VK_STRUCTURE_TYPE_MEMORY_BARRIER);
-      toShader.srcAccessMask = VK_ACCESS_HOST_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-      toShader.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
-      context.functions().vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                                               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &toShader, 0, nullptr, 0, nullptr);
+      barrierBeforeShaders(context, cmd);
       if (moments) recordMoments(cmd, *moments);
       if (shade) {
         context.functions().vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, shadePipeline->get());

@@ -74,6 +74,20 @@ std::size_t addActor(Scene& scene) {
                          glm::scale(glm::dmat4(1.0), glm::dvec3(0.5)));
 }
 
+// A spot light pointing down from `position`, with a 64^2 shadow layer: the light a game adds.
+LightDesc shadowedSpot(const glm::vec3& position) {
+  LightDesc l;
+  l.type = LightType::Spot;
+  l.position = position;
+  l.direction = glm::vec3(0.1f, -1.0f, 0.05f);
+  l.range = 40.0f;
+  l.outerConeDeg = 35.0f;
+  l.intensity = 300.0f;
+  l.shadow = ShadowDesc{};
+  l.shadow->resolution = 64;
+  return l;
+}
+
 // How many bytes of a frame differ from a new renderer's, per part.
 struct Differences {
   std::size_t layers = 0, gbuffer = 0, color = 0, terms = 0, moments = 0;
@@ -246,15 +260,7 @@ struct Game {
       if (i != 0) scene.setInstanceObject(i, object);
     } else if (r < 86) {
       if (addedLights.size() < 2) {
-        LightDesc l;
-        l.type = LightType::Spot;
-        l.position = glm::vec3(float(uniform(0, 40)), float(uniform(10, 25)), float(uniform(20, 50)));
-        l.direction = glm::vec3(0.1f, -1.0f, 0.05f);
-        l.range = 40.0f;
-        l.outerConeDeg = 35.0f;
-        l.intensity = 300.0f;
-        l.shadow = ShadowDesc{};
-        l.shadow->resolution = 64;
+        LightDesc l = shadowedSpot(glm::vec3(float(uniform(0, 40)), float(uniform(10, 25)), float(uniform(20, 50))));
         l.shadow->filter = pick(2) ? ShadowFilter::Pcf5 : ShadowFilter::Poisson16;
         // In an EVSM game, an added EVSM layer moves every later view's moments in the store.
         if (evsm && pick(2)) l.shadow->filter = ShadowFilter::Evsm;
@@ -393,15 +399,7 @@ TEST(FrameLoop, GrownFramesAndAddedLightsKeepRendering) {
     RenderOptions raytraced = smallFrame();
     raytraced.shadows = ShadowSource::Raytraced;
     expectFresh(raytraced, "ray-traced");
-    LightDesc spot;
-    spot.type = LightType::Spot;
-    spot.position = glm::vec3(20.0f, 15.0f, 35.0f);
-    spot.direction = glm::vec3(0.1f, -1.0f, 0.05f);
-    spot.range = 40.0f;
-    spot.outerConeDeg = 35.0f;
-    spot.intensity = 300.0f;
-    spot.shadow = ShadowDesc{};
-    spot.shadow->resolution = 64;
+    LightDesc spot = shadowedSpot(glm::vec3(20.0f, 15.0f, 35.0f));
     spot.name = "added-spot";
     game.scene.addLight(spot);
     EXPECT_NO_THROW(expectFresh(raytraced, "a light added, ray-traced")) << backend;
