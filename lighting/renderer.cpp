@@ -15,6 +15,7 @@
 
 #include "compute/vulkan/vulkan_tracer.h"
 #include "lighting/evsm.h"
+#include "lighting/host_gbuffer.h"
 #include "lighting/vulkan_lighting.h"
 #include "voxel/error.h"
 #include "voxel/one_call.h"
@@ -46,8 +47,10 @@ bool sameCamera(const CameraFrame& a, const CameraFrame& b) {
 bool drawsALayer(const RenderOptions& o) { return o.debug == DebugView::Layer || o.debug == DebugView::Moments; }
 
 bool sameOptions(const RenderOptions& a, const RenderOptions& b) {
+  // Of the host's G-buffer only whether there is one (a kept frame's pointer may dangle, and is not read): a
+  // frame with one redoes every pixel anyway.
   return a.width == b.width && a.height == b.height && a.shadows == b.shadows && a.debug == b.debug &&
-         a.debugLayer == b.debugLayer;
+         a.debugLayer == b.debugLayer && (a.hostGBuffer != nullptr) == (b.hostGBuffer != nullptr);
 }
 
 TexelRect intersect(const TexelRect& a, const TexelRect& b) {
@@ -462,6 +465,13 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   const bool needMaps = !raytraced || layerView;
   State& s = *state_;
   VulkanTracer* vulkan = tracer_.vulkan();
+  // The host's G-buffer is checked before anything changes.
+  if (options.hostGBuffer) {
+    if (!vulkan)
+      throwBadInput("RenderOptions.hostGBuffer: a host engine's G-buffer needs the Vulkan backend (its images are on "
+                    "its device); this renderer's tracer is a CPU tracer");
+    checkHostGBuffer(*vulkan->sharedContext(), *options.hostGBuffer, camera.width, camera.height);
+  }
 
   // The views first: a bad debug layer is refused before anything changes.
   std::vector<LightView> views = needMaps ? buildLightViews(desc, scene.worldBounds(), &camera) : std::vector<LightView>{};
@@ -723,7 +733,8 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   // are re-based with: when the world's bounds move, every primary ray's hit may change in its last bits.
   const Aabb& bounds = scene.worldBounds();
   const bool boundsMoved = bounds.min != s.bounds.min || bounds.max != s.bounds.max;
-  const bool allPixels = full || boundsMoved || !sameCamera(camera, s.camera) || !sameOptions(options, s.options);
+  const bool allPixels = full || boundsMoved || !sameCamera(camera, s.camera) || !sameOptions(options, s.options) ||
+                         options.hostGBuffer;
   std::vector<std::uint8_t> marks(pixelCount, allPixels ? 1 : 0);
   // The rays are made where they are traced (on the device on Vulkan: only the camera record and the pixel
   // list go up); the resolve makes the same rays again on the host.
@@ -734,8 +745,20 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   std::vector<gpu::RayHit>& hits = s.hits;
   // What the resolve reads besides the hits, made once for the host's resolve and the device's.
   GBufferTables tables;
-  if (allPixels || !boxes.empty()) tables = gbufferTables(scene);
-  if (allPixels) {
+  if (!options.hostGBuffer && (allPixels || !boxes.empty())) tables = gbufferTables(scene);
+  if (options.hostGBuffer) {
+    // The host's surfaces instead of primary rays: imported on the device beside its receivers, and read back
+    // for the caller and the host's own uses of the frame's G-buffer.
+    LightingTraffic traffic;
+    lightingPass().importGBuffer(*options.hostGBuffer, camera.width, camera.height, &traffic);
+    frame.gbuffer.width = camera.width;
+    frame.gbuffer.height = camera.height;
+    frame.gbuffer.texels.resize(pixelCount);
+    s.lighting->readGBuffer(frame.gbuffer, &traffic);
+    stats.bytesUploaded += traffic.uploaded;
+    stats.bytesReadBack += traffic.readBack;
+    stats.dispatches += traffic.dispatches;
+  } else if (allPixels) {
     hits.resize(pixelCount);
     const TraceStats ts = tracer_.traceCamera(cameraRecord, {}, hits);
     stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
@@ -752,7 +775,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
       stats.primaryRays = primaryPixels.size();
     }
   }
-  if (vulkan && stats.primaryRays > 0) {
+  if (vulkan && stats.primaryRays > 0 && !options.hostGBuffer) {
     stats.bytesUploaded += sizeof(gpu::CameraRays) + primaryPixels.size() * sizeof(std::uint32_t);
     stats.bytesReadBack += stats.primaryRays * sizeof(gpu::RayHit);
     // The same hits resolved on the device into the lighting pass's G-buffer, which then reads it in place: the

@@ -23,6 +23,8 @@ namespace vs {
 enum class ShadowSource { Maps, Raytraced };
 enum class DebugView { None, Cascades, Shadow, Normals, Layer, Moments };
 
+struct HostGBuffer;  // lighting/host_gbuffer.h
+
 struct RenderOptions {
   int width = 0, height = 0;  // 0: the scene camera's; else 1..limits::kMaxImageSide
   ShadowSource shadows = ShadowSource::Maps;
@@ -35,6 +37,13 @@ struct RenderOptions {
   // read it back whatever readColor says. Neither changes what is traced or shaded.
   bool readColor = true;
   bool readShadowTerms = true;
+  // A host engine's own G-buffer on the tracer's device (lighting/host_gbuffer.h; README "Embedding in an
+  // engine"): the frame is lit, and its contact rays traced, from the host's surfaces instead of the library's
+  // primary rays (none is traced). Every pixel is imported, traced toward the lights with rays and shaded again
+  // each such frame (the host's G-buffer may differ anywhere); the layers are kept and traced as in any frame.
+  // RenderedFrame::gbuffer holds the imported texels (vsImportTexel), read back. Null: the library's own G-buffer.
+  // Vulkan only; the images must stay valid, in their stated layouts, until render() returns.
+  const HostGBuffer* hostGBuffer = nullptr;
 };
 
 // Refuses (vs::Error(BadInput), "RenderOptions.<field>: <problem>") what render() cannot draw: a width or

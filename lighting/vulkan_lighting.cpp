@@ -9,8 +9,10 @@
 #include "deferred_lighting.spv.h"
 #include "deferred_lighting_variant.spv.h"
 #include "evsm_moments.spv.h"
+#include "gbuffer_import.spv.h"
 #include "gbuffer_resolve.spv.h"
 #include "visibility_spread.spv.h"
+#include "lighting/host_gbuffer.h"
 #include "lighting/lighting_variant.h"
 #include "lighting/shared/lighting_interface.h"
 #include "voxel/error.h"
@@ -38,6 +40,25 @@ void barrierBeforeShaders(const VulkanContext& context, VkCommandBuffer cmd) {
                 VK_ACCESS_HOST_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                 VK_ACCESS_SHADER_READ_BIT);
 }
+
+// Whatever the host's own work wrote before (its G-buffer images: attachments, transfers, shaders), before a
+// pass's shaders read it.
+void barrierBeforeHostImages(const VulkanContext& context, VkCommandBuffer cmd) {
+  memoryBarrier(context, cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_ACCESS_MEMORY_WRITE_BIT,
+                VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+}
+
+// One binding of a helper pass: a storage buffer, or an image view read through the pass's immutable sampler.
+struct HelperBinding {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkImageView image = VK_NULL_HANDLE;
+  VkImageLayout layout = VK_IMAGE_LAYOUT_UNDEFINED;
+  HelperBinding(VkBuffer b) : buffer(b) {}
+  HelperBinding(VkImageView view, VkImageLayout l) : image(view), layout(l) {}
+  VkDescriptorType type() const {
+    return image ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  }
+};
 
 // The lighting pass's pipelines on one device, compiled once and shared by every VulkanLighting on it
 // (VulkanContext::shared): a renderer made for one frame, or a second renderer, compiles nothing again, where
@@ -70,7 +91,9 @@ struct LightingPipelines {
     vk::UniquePipeline pipeline;
     vk::UniqueShaderModule module;
   };
-  HelperPass resolve, spread;
+  HelperPass resolve, spread, import;
+  // The import's immutable sampler (nearest texel; texelFetch reads by texel anyway), made with the pass.
+  vk::UniqueSampler nearest;
 
   // At most this many specialised variants are kept: a caller that keeps switching lights' filters recompiles,
   // it does not grow without bound.
@@ -125,11 +148,33 @@ struct LightingPipelines {
   // `pass`, made now if it was not: `bindings` storage buffers, a push block of `pushBytes`.
   const HelperPass& helper(HelperPass& pass, const std::uint32_t* code, std::size_t codeBytes, std::uint32_t bindings,
                            std::uint32_t pushBytes) {
+    const std::vector<VkDescriptorType> types(bindings, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
+    return helper(pass, code, codeBytes, types, pushBytes);
+  }
+  // `pass`, made now if it was not: a binding of each type in `types` (combined image samplers read through
+  // `nearest`), a push block of `pushBytes` (0: none).
+  const HelperPass& helper(HelperPass& pass, const std::uint32_t* code, std::size_t codeBytes,
+                           std::span<const VkDescriptorType> types, std::uint32_t pushBytes) {
     std::lock_guard lock(mutex);
     if (pass.pipeline) return pass;
+    const auto bindings = std::uint32_t(types.size());
+    if (!nearest && std::find(types.begin(), types.end(), VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER) != types.end()) {
+      auto si = vk::make<VkSamplerCreateInfo>(VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
+      si.magFilter = VK_FILTER_NEAREST;
+      si.minFilter = VK_FILTER_NEAREST;
+      si.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+      si.addressModeU = si.addressModeV = si.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+      si.maxLod = 0.0f;
+      VkSampler made = VK_NULL_HANDLE;
+      vk::check(context.functions().vkCreateSampler(context.device(), &si, context.functions().allocator, &made),
+                "vkCreateSampler");
+      nearest = vk::UniqueSampler(context.functions(), context.device(), made);
+    }
+    const VkSampler sampler = nearest.get();
     std::vector<VkDescriptorSetLayoutBinding> layoutBindings(bindings);
     for (std::uint32_t b = 0; b < bindings; ++b)
-      layoutBindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+      layoutBindings[b] = {b, types[b], 1, VK_SHADER_STAGE_COMPUTE_BIT,
+                           types[b] == VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER ? &sampler : nullptr};
     auto dl = vk::make<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
     dl.bindingCount = bindings;
     dl.pBindings = layoutBindings.data();
@@ -177,7 +222,8 @@ struct VulkanLighting::Impl {
     vk::UniqueDescriptorPool pool;
     VkDescriptorSet set = VK_NULL_HANDLE;
   };
-  HelperSet resolveSet, spreadSet;
+  HelperSet resolveSet, spreadSet, importSet;
+  vk::Buffer importRecord;  // the host G-buffer's record (HostGBufferRecord)
   // The G-buffer resolve's tables (the last ones written, compared before writing again), and how many pixels'
   // texels the G-buffer buffer holds whole, as the host's G-buffer has them (0: not whole, or unknown).
   vk::Buffer resolveInstances, resolvePalette;
@@ -460,19 +506,74 @@ struct VulkanLighting::Impl {
     if (receiversWhole) receiversHeld = pixels;
   }
 
+  void importGBuffer(const HostGBuffer& host, int width, int height, LightingTraffic& traffic) {
+    checkHostGBuffer(context, host, width, height);
+    const gpu::HostGBufferRecord record = hostGBufferRecord(host, width, height);
+    const std::size_t pixels = std::size_t(width) * std::size_t(height);
+    if (pixels == 0) throwBadInput("RenderOptions.hostGBuffer.width: a frame of no pixels");
+    // A new G-buffer buffer: the lighting set must bind it (the next shading call writes and shades whole).
+    if (reserve(gpu::VS_LIGHTING_BINDING_GBUFFER, pixels * sizeof(gpu::GBufferTexel))) descriptorsStale = true;
+    const VkDeviceSize receiverBytes = pixels * sizeof(gpu::VisibilityReceiver);
+    if (!receivers.buffer || receivers.size < receiverBytes) {
+      receiversHeld = 0;
+      receivers = vk::Buffer{};
+      receivers = context.createDeviceBuffer(receiverBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    }
+    if (!importRecord.buffer)
+      importRecord = context.createHostBuffer(sizeof record, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    std::memcpy(importRecord.mapped, &record, sizeof record);
+    traffic.uploaded += sizeof record;
+    gbufferHeld = 0;  // until the import has run
+    receiversHeld = 0;
+    constexpr VkDescriptorType image = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    constexpr VkDescriptorType storage = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    static constexpr std::array<VkDescriptorType, gpu::VS_IMPORT_BINDING_COUNT> types{image, image, image,
+                                                                                     storage, storage, storage};
+    const LightingPipelines::HelperPass& pass =
+        pipelines->helper(pipelines->import, gbuffer_import, sizeof gbuffer_import, types, 0);
+    // Without an albedo image the normal image fills its binding (the pass reads white instead).
+    const HostImage& albedo = host.albedo.view ? host.albedo : host.normal;
+    const std::array<HelperBinding, gpu::VS_IMPORT_BINDING_COUNT> bound{
+        HelperBinding(host.depth.view, host.depth.layout), HelperBinding(host.normal.view, host.normal.layout),
+        HelperBinding(albedo.view, albedo.layout), HelperBinding(importRecord.get()),
+        HelperBinding(buffers[gpu::VS_LIGHTING_BINDING_GBUFFER].get()), HelperBinding(receivers.get())};
+    runHelper(pass, importSet, bound, nullptr, 0, (std::uint32_t(width) + gpu::VS_IMPORT_GROUP_WIDTH - 1) / gpu::VS_IMPORT_GROUP_WIDTH,
+              (std::uint32_t(height) + gpu::VS_IMPORT_GROUP_HEIGHT - 1) / gpu::VS_IMPORT_GROUP_HEIGHT, true);
+    ++traffic.dispatches;
+    gbufferHeld = pixels;
+    receiversHeld = pixels;
+  }
+
   // Runs a helper pass over `invocations` (rows of workgroups along y past maxComputeWorkGroupCount[0]) with
   // `bound` at its bindings, in one submission: the host's and earlier shaders' writes before it, its writes
   // visible to later shaders and host reads.
   void runHelper(const LightingPipelines::HelperPass& pass, HelperSet& helperSet, std::span<const VkBuffer> bound,
                  const void* push, std::uint32_t pushBytes, std::uint64_t invocations, std::uint32_t groupSize) {
+    const std::vector<HelperBinding> bindings(bound.begin(), bound.end());
     if (invocations == 0) throwBadInput("lighting: a helper pass over no invocations");
+    const std::uint64_t groups = (invocations + groupSize - 1) / groupSize;
+    const std::uint32_t groupsX = std::uint32_t(std::min<std::uint64_t>(groups, context.info().maxWorkGroupCount[0]));
+    runHelper(pass, helperSet, bindings, push, pushBytes, groupsX, std::uint32_t((groups + groupsX - 1) / groupsX),
+              false);
+  }
+  // The same over groupsX x groupsY workgroups, with images among the bindings; `afterHostWork`: the barrier
+  // before it waits for every earlier write on the queue (the host's own images), not only the host's and the
+  // shaders'.
+  void runHelper(const LightingPipelines::HelperPass& pass, HelperSet& helperSet, std::span<const HelperBinding> bound,
+                 const void* push, std::uint32_t pushBytes, std::uint32_t groupsX, std::uint32_t groupsY,
+                 bool afterHostWork) {
     VkDevice dev = context.device();
     if (!helperSet.pool) {
-      const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, std::uint32_t(bound.size())};
+      std::vector<VkDescriptorPoolSize> sizes;
+      for (const HelperBinding& b : bound) {
+        auto it = std::find_if(sizes.begin(), sizes.end(), [&](const VkDescriptorPoolSize& s) { return s.type == b.type(); });
+        if (it == sizes.end()) sizes.push_back({b.type(), 1});
+        else ++it->descriptorCount;
+      }
       auto dp = vk::make<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
       dp.maxSets = 1;
-      dp.poolSizeCount = 1;
-      dp.pPoolSizes = &size;
+      dp.poolSizeCount = std::uint32_t(sizes.size());
+      dp.pPoolSizes = sizes.data();
       VkDescriptorPool pool = VK_NULL_HANDLE;
       vk::check(context.functions().vkCreateDescriptorPool(dev, &dp, context.functions().allocator, &pool), "vkCreateDescriptorPool");
       helperSet.pool = vk::UniqueDescriptorPool(context.functions(), dev, pool);
@@ -484,26 +585,31 @@ struct VulkanLighting::Impl {
       vk::check(context.functions().vkAllocateDescriptorSets(dev, &ai, &helperSet.set), "vkAllocateDescriptorSets");
     }
     std::vector<VkDescriptorBufferInfo> infos(bound.size());
+    std::vector<VkDescriptorImageInfo> images(bound.size());
     std::vector<VkWriteDescriptorSet> writes(bound.size());
     for (std::size_t b = 0; b < bound.size(); ++b) {
-      infos[b] = {bound[b], 0, VK_WHOLE_SIZE};
       writes[b] = vk::make<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
       writes[b].dstSet = helperSet.set;
       writes[b].dstBinding = std::uint32_t(b);
       writes[b].descriptorCount = 1;
-      writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-      writes[b].pBufferInfo = &infos[b];
+      writes[b].descriptorType = bound[b].type();
+      if (bound[b].image) {
+        images[b] = {VK_NULL_HANDLE, bound[b].image, bound[b].layout};  // the set layout's immutable sampler
+        writes[b].pImageInfo = &images[b];
+      } else {
+        infos[b] = {bound[b].buffer, 0, VK_WHOLE_SIZE};
+        writes[b].pBufferInfo = &infos[b];
+      }
     }
     context.functions().vkUpdateDescriptorSets(dev, std::uint32_t(writes.size()), writes.data(), 0, nullptr);
-    const std::uint64_t groups = (invocations + groupSize - 1) / groupSize;
-    const std::uint32_t groupsX = std::uint32_t(std::min<std::uint64_t>(groups, context.info().maxWorkGroupCount[0]));
-    const std::uint32_t groupsY = std::uint32_t((groups + groupsX - 1) / groupsX);
     const VkPipelineLayout layout = pass.layout.get();
     context.submitAndWait([&](VkCommandBuffer cmd) {
-      barrierBeforeShaders(context, cmd);
+      if (afterHostWork) barrierBeforeHostImages(context, cmd);
+      else barrierBeforeShaders(context, cmd);
       context.functions().vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pass.pipeline.get());
       context.functions().vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &helperSet.set, 0, nullptr);
-      context.functions().vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes, push);
+      if (pushBytes > 0)
+        context.functions().vkCmdPushConstants(cmd, layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes, push);
       context.functions().vkCmdDispatch(cmd, groupsX, groupsY, 1);
       // Its writes to the later passes and to host reads.
       memoryBarrier(context, cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
@@ -776,6 +882,15 @@ void VulkanLighting::spreadVisibility(const VisibilityTraceBuffers& trace, std::
                                       std::span<const std::uint32_t> current, LightingTraffic* traffic) {
   LightingTraffic t;
   impl_->spreadVisibility(trace, slots, pixels, current, t);
+  if (traffic) {
+    traffic->uploaded += t.uploaded;
+    traffic->dispatches += t.dispatches;
+  }
+}
+
+void VulkanLighting::importGBuffer(const HostGBuffer& host, int width, int height, LightingTraffic* traffic) {
+  LightingTraffic t;
+  impl_->importGBuffer(host, width, height, t);
   if (traffic) {
     traffic->uploaded += t.uploaded;
     traffic->dispatches += t.dispatches;

@@ -16,6 +16,8 @@
 
 namespace vs {
 
+struct HostGBuffer;  // lighting/host_gbuffer.h
+
 // What the pass did in one call: bytes moved between host and device memory, pixels shaded and dispatches.
 struct LightingTraffic {
   std::uint64_t uploaded = 0;
@@ -124,6 +126,13 @@ class VulkanLighting {
   // with visibilityOnDevice write none. Throws vs::Error(BadInput) on sizes that disagree.
   void spreadVisibility(const VisibilityTraceBuffers& trace, std::span<const int> slots, std::size_t pixels,
                         std::span<const std::uint32_t> current, LightingTraffic* traffic = nullptr);
+  // Makes the pass's G-buffer, and the visibility receivers beside it, from a host engine's G-buffer images on
+  // this pass's device (lighting/host_gbuffer.h, read with vsImportTexel), for a frame of width x height pixels:
+  // then shade() or shadeChanged() with gbufferOnDevice write none, and receivers() serves a visibility trace.
+  // Throws vs::Error(BadInput) as hostGBufferRecord does, and for an image whose layout is not one the pass reads
+  // from or whose format the device cannot sample as floats (naming the field); vs::Error(Runtime) on device
+  // errors.
+  void importGBuffer(const HostGBuffer& host, int width, int height, LightingTraffic* traffic = nullptr);
   // The visibility receivers of the G-buffer the pass holds (vsReceiverOf each texel), which the resolve writes
   // beside it, for VulkanTracer::traceVisibility to read in place (set `pixels` of the result to take some);
   // an empty buffer where they are not whole for `pixels` pixels (a G-buffer written from the host since).

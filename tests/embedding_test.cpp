@@ -9,8 +9,10 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <iostream>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -22,7 +24,10 @@
 
 #include "compute/vulkan/vulkan_context.h"
 #include "compute/vulkan/vulkan_tracer.h"
+#include "lighting/camera.h"
+#include "lighting/host_gbuffer.h"
 #include "lighting/renderer.h"
+#include "lighting/shared/gbuffer_import.h"
 #include "lighting/vulkan_shadows.h"
 #include "lighting/scene_file.h"
 #include "support/demo_frames.h"
@@ -708,6 +713,330 @@ TEST(Embedding, AHostShaderGetsTheLibrarysShadowTermsFromItsBuffers) {
     raytraced.shadows = ShadowSource::Raytraced;
     (void)renderer.render(scene, raytraced);
     EXPECT_NE(errorOf([&] { (void)renderer.vulkanShadows(); }).find("no shadow maps"), std::string::npos);
+  }
+  host.destroy();
+  const std::vector<std::string> messages = host.messages();
+  EXPECT_TRUE(messages.empty()) << messages.size() << " validation messages, the first: " << messages.front();
+}
+
+// The host engine's own G-buffer images (depth, normal, albedo) on its device: made from texels it computed,
+// uploaded and left in SHADER_READ_ONLY_OPTIMAL, as a deferred renderer's G-buffer pass would leave them.
+class HostGBufferImages {
+ public:
+  HostGBufferImages(const HostEngine& host, int width, int height) : host_(host), device_(host.device()),
+                                                                     width_(width), height_(height) {
+    VkCommandPoolCreateInfo cpci{};
+    cpci.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    cpci.queueFamilyIndex = host.queueFamily();
+    check(vkCreateCommandPool(device_, &cpci, nullptr, &commandPool_), "vkCreateCommandPool");
+  }
+  ~HostGBufferImages() {
+    for (const Made& m : made_) {
+      vkDestroyImageView(device_, m.view, nullptr);
+      vkDestroyImage(device_, m.image, nullptr);
+      vkFreeMemory(device_, m.memory, nullptr);
+    }
+    vkDestroyCommandPool(device_, commandPool_, nullptr);
+  }
+  HostGBufferImages(const HostGBufferImages&) = delete;
+  HostGBufferImages& operator=(const HostGBufferImages&) = delete;
+
+  // An image of `format` holding `texels` (width x height, row 0 first), sampled in SHADER_READ_ONLY_OPTIMAL.
+  template <typename T>
+  HostImage image(VkFormat format, const std::vector<T>& texels) {
+    Made m;
+    VkImageCreateInfo ici{};
+    ici.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
+    ici.imageType = VK_IMAGE_TYPE_2D;
+    ici.format = format;
+    ici.extent = {std::uint32_t(width_), std::uint32_t(height_), 1};
+    ici.mipLevels = 1;
+    ici.arrayLayers = 1;
+    ici.samples = VK_SAMPLE_COUNT_1_BIT;
+    ici.tiling = VK_IMAGE_TILING_OPTIMAL;
+    ici.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    ici.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    check(vkCreateImage(device_, &ici, nullptr, &m.image), "vkCreateImage");
+    VkMemoryRequirements req{};
+    vkGetImageMemoryRequirements(device_, m.image, &req);
+    m.memory = allocate(req, 0);
+    check(vkBindImageMemory(device_, m.image, m.memory, 0), "vkBindImageMemory");
+    // Staging: a host-visible buffer with the texels.
+    const VkDeviceSize bytes = texels.size() * sizeof(T);
+    VkBufferCreateInfo bci{};
+    bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    bci.size = bytes;
+    bci.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    VkBuffer staging = VK_NULL_HANDLE;
+    check(vkCreateBuffer(device_, &bci, nullptr, &staging), "vkCreateBuffer");
+    vkGetBufferMemoryRequirements(device_, staging, &req);
+    VkDeviceMemory stagingMemory =
+        allocate(req, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+    check(vkBindBufferMemory(device_, staging, stagingMemory, 0), "vkBindBufferMemory");
+    void* mapped = nullptr;
+    check(vkMapMemory(device_, stagingMemory, 0, VK_WHOLE_SIZE, 0, &mapped), "vkMapMemory");
+    std::memcpy(mapped, texels.data(), bytes);
+    vkUnmapMemory(device_, stagingMemory);
+    VkCommandBufferAllocateInfo cai{};
+    cai.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    cai.commandPool = commandPool_;
+    cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cai.commandBufferCount = 1;
+    VkCommandBuffer cmd = VK_NULL_HANDLE;
+    check(vkAllocateCommandBuffers(device_, &cai, &cmd), "vkAllocateCommandBuffers");
+    VkCommandBufferBeginInfo begin{};
+    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    check(vkBeginCommandBuffer(cmd, &begin), "vkBeginCommandBuffer");
+    VkImageMemoryBarrier toCopy{};
+    toCopy.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
+    toCopy.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    toCopy.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    toCopy.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    toCopy.srcQueueFamilyIndex = toCopy.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    toCopy.image = m.image;
+    toCopy.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0,
+                         nullptr, 1, &toCopy);
+    VkBufferImageCopy copy{};
+    copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    copy.imageExtent = ici.extent;
+    vkCmdCopyBufferToImage(cmd, staging, m.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
+    // To the layout the host states; the library's own barrier makes the copy visible to its pass.
+    VkImageMemoryBarrier toRead = toCopy;
+    toRead.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    toRead.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
+    toRead.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    toRead.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 0, nullptr, 0,
+                         nullptr, 1, &toRead);
+    check(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+    VkSubmitInfo submit{};
+    submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &cmd;
+    check(vkQueueSubmit(host_.queue(), 1, &submit, VK_NULL_HANDLE), "vkQueueSubmit");
+    check(vkQueueWaitIdle(host_.queue()), "vkQueueWaitIdle");
+    vkFreeCommandBuffers(device_, commandPool_, 1, &cmd);
+    vkDestroyBuffer(device_, staging, nullptr);
+    vkFreeMemory(device_, stagingMemory, nullptr);
+    VkImageViewCreateInfo vci{};
+    vci.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
+    vci.image = m.image;
+    vci.viewType = VK_IMAGE_VIEW_TYPE_2D;
+    vci.format = format;
+    vci.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    check(vkCreateImageView(device_, &vci, nullptr, &m.view), "vkCreateImageView");
+    made_.push_back(m);
+    return HostImage{m.view, format, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+  }
+
+ private:
+  struct Made {
+    VkImage image = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    VkImageView view = VK_NULL_HANDLE;
+  };
+  static void check(VkResult r, const char* call) {
+    if (r != VK_SUCCESS) throw std::runtime_error(std::string("the host engine's ") + call + " failed");
+  }
+  VkDeviceMemory allocate(const VkMemoryRequirements& req, VkMemoryPropertyFlags want) {
+    VkPhysicalDeviceMemoryProperties props{};
+    vkGetPhysicalDeviceMemoryProperties(host_.physicalDevice(), &props);
+    std::uint32_t type = props.memoryTypeCount;
+    for (std::uint32_t t = 0; t < props.memoryTypeCount && type == props.memoryTypeCount; ++t)
+      if ((req.memoryTypeBits & (1u << t)) && (props.memoryTypes[t].propertyFlags & want) == want) type = t;
+    if (type == props.memoryTypeCount) throw std::runtime_error("the host engine found no memory for its image");
+    VkMemoryAllocateInfo mai{};
+    mai.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    mai.allocationSize = req.size;
+    mai.memoryTypeIndex = type;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    check(vkAllocateMemory(device_, &mai, nullptr, &memory), "vkAllocateMemory");
+    return memory;
+  }
+
+  const HostEngine& host_;
+  VkDevice device_;
+  int width_, height_;
+  VkCommandPool commandPool_ = VK_NULL_HANDLE;
+  std::vector<Made> made_;
+};
+
+// The host's camera matrices for the library's camera, as a Vulkan engine writes them: a right-handed view
+// (the camera looks down -z) and an infinite perspective with reversed depth (1 at the near plane, 0 at infinity)
+// whose y points down the image.
+void hostMatrices(const CameraFrame& c, glm::dmat4& worldToView, glm::dmat4& viewToClip) {
+  worldToView = glm::dmat4(1.0);
+  for (int i = 0; i < 3; ++i) {
+    worldToView[i][0] = c.right[i];
+    worldToView[i][1] = c.up[i];
+    worldToView[i][2] = -c.forward[i];
+  }
+  worldToView[3] = glm::dvec4(-glm::dot(c.right, c.position), -glm::dot(c.up, c.position),
+                              glm::dot(c.forward, c.position), 1.0);
+  const double f = 1.0 / c.tanHalfFovY;
+  viewToClip = glm::dmat4(0.0);
+  viewToClip[0][0] = f / c.aspect;
+  viewToClip[1][1] = -f;
+  viewToClip[2][3] = -1.0;
+  viewToClip[3][2] = c.nearPlane;
+}
+
+float relativeGap(const glm::vec3& a, const glm::vec3& b, float scale) {
+  return glm::length(glm::dvec3(a) - glm::dvec3(b)) / (1.0f + scale);
+}
+
+// A host engine's own G-buffer, drawn by its own pass (here: the library's frame turned into the images a
+// deferred renderer keeps, depth computed from each surface point with the host's own matrices in double),
+// lights the frame: the imported texels are the surfaces the library itself traced to float precision, the
+// device's import is the shared function's (vsImportTexel on the host, same inputs), and the frame's shadow
+// terms and colour equal those of the library's own G-buffer but where the reconstructed position moved a
+// receiver across a shadow's edge. No primary ray is traced. Bad input is refused naming the field, changing
+// nothing; a CPU tracer is refused.
+TEST(Embedding, TheHostsGBufferLightsTheFrameAsTheLibrarysOwn) {
+  dispatch.reset();
+  const Scene scene = test::demoScene("embedding_host_gbuffer", 64, 0.0f);
+  HostEngine host;
+  {
+    VulkanOptions o;
+    o.context = std::make_shared<VulkanContext>(host.handles());
+    o.validation = true;
+    std::unique_ptr<Tracer> tracer = makeVulkanTracer(o);
+    FrameRenderer renderer(*tracer);
+    const RenderOptions plain = smallFrame();
+    const RenderedFrame own = renderer.render(scene, plain);
+    const int width = own.width, height = own.height;
+    const std::size_t pixels = own.gbuffer.texels.size();
+    const CameraFrame camera = cameraFrame(*scene.desc().camera, width, height);
+
+    HostGBuffer g;
+    g.width = width;
+    g.height = height;
+    hostMatrices(camera, g.worldToView, g.viewToClip);
+    g.skyDepth = 0.0f;
+    std::vector<float> depth(pixels, 0.0f);
+    std::vector<glm::vec4> normals(pixels, glm::vec4(0.0f)), viewNormals(pixels, glm::vec4(0.5f)),
+        albedo(pixels, glm::vec4(0.0f));
+    std::size_t hits = 0;
+    for (std::size_t i = 0; i < pixels; ++i) {
+      const gpu::GBufferTexel& t = own.gbuffer.texels[i];
+      if (t.info.w == 0u) continue;
+      ++hits;
+      g.voxelSize = t.normal.w;  // the demo's voxels are all one size
+      const glm::dvec4 view = g.worldToView * glm::dvec4(glm::dvec3(glm::vec3(t.position)), 1.0);
+      const glm::dvec4 clip = g.viewToClip * view;
+      depth[i] = float(clip.z / clip.w);
+      normals[i] = glm::vec4(glm::vec3(t.normal), 0.0f);
+      const glm::dvec3 n = glm::dmat3(g.worldToView) * glm::dvec3(glm::vec3(t.normal));
+      viewNormals[i] = glm::vec4(glm::vec3(n * 0.5 + 0.5), 0.0f);
+      albedo[i] = glm::vec4(glm::vec3(t.albedo), 1.0f);
+    }
+    ASSERT_GT(hits, pixels / 4);
+    HostGBufferImages images(host, width, height);
+    g.depth = images.image(VK_FORMAT_R32_SFLOAT, depth);
+    g.normal = images.image(VK_FORMAT_R32G32B32A32_SFLOAT, normals);
+    g.albedo = images.image(VK_FORMAT_R32G32B32A32_SFLOAT, albedo);
+    const HostImage viewNormalImage = images.image(VK_FORMAT_R32G32B32A32_SFLOAT, viewNormals);
+
+    RenderOptions withHost = plain;
+    withHost.hostGBuffer = &g;
+    const RenderedFrame hosted = renderer.render(scene, withHost);
+    EXPECT_EQ(hosted.stats.primaryRays, 0u);
+    ASSERT_EQ(hosted.gbuffer.texels.size(), pixels);
+    // The device's import is the shared function's, and the surfaces are the library's own.
+    const gpu::HostGBufferRecord record = hostGBufferRecord(g, width, height);
+    std::size_t importGaps = 0, surfaceGaps = 0;
+    for (std::size_t i = 0; i < pixels; ++i) {
+      const gpu::GBufferTexel& a = hosted.gbuffer.texels[i];
+      const gpu::GBufferTexel& b = own.gbuffer.texels[i];
+      const gpu::GBufferTexel c = gpu::vsImportTexel(record, std::uint32_t(i), depth[i], normals[i], albedo[i]);
+      const float distance = std::abs(b.position.w);
+      if (a.info.w != c.info.w || relativeGap(glm::vec3(a.position), glm::vec3(c.position), distance) > 1e-6f ||
+          std::abs(a.position.w - c.position.w) > 1e-6f * (1.0f + distance) ||
+          relativeGap(glm::vec3(a.normal), glm::vec3(c.normal), 0.0f) > 1e-6f || a.normal.w != c.normal.w ||
+          !test::sameBytes(std::vector<glm::vec4>{a.albedo}, std::vector<glm::vec4>{c.albedo}))
+        ++importGaps;
+      if (a.info.w != b.info.w ||
+          (b.info.w != 0u && (relativeGap(glm::vec3(a.position), glm::vec3(b.position), distance) > 1e-5f ||
+                              std::abs(a.position.w - b.position.w) > 1e-5f * (1.0f + distance) ||
+                              relativeGap(glm::vec3(a.normal), glm::vec3(b.normal), 0.0f) > 1e-6f ||
+                              glm::vec3(a.albedo) != glm::vec3(b.albedo))))
+        ++surfaceGaps;
+    }
+    EXPECT_EQ(importGaps, 0u) << "of " << pixels << " texels";
+    EXPECT_EQ(surfaceGaps, 0u) << "of " << pixels << " texels";
+    ASSERT_EQ(hosted.shadowTerms.size(), own.shadowTerms.size());
+    std::size_t termsDiffer = 0, shadowed = 0, colorsDiffer = 0;
+    for (std::size_t i = 0; i < own.shadowTerms.size(); ++i) {
+      termsDiffer += hosted.shadowTerms[i] != own.shadowTerms[i];
+      shadowed += own.shadowTerms[i] < 1.0f;
+    }
+    for (std::size_t i = 0; i < pixels; ++i) colorsDiffer += glm::any(glm::greaterThan(
+        glm::abs(hosted.color[i] - own.color[i]), glm::vec4(1e-3f * (1.0f + glm::length(own.color[i])))));
+    EXPECT_GT(shadowed, own.shadowTerms.size() / 20);
+    std::cout << "host G-buffer: " << termsDiffer << " of " << own.shadowTerms.size() << " shadow terms and "
+              << colorsDiffer << " of " << pixels << " colours differ from the library's own G-buffer's\n";
+    EXPECT_LE(termsDiffer, own.shadowTerms.size() / 200);
+    EXPECT_LE(colorsDiffer, pixels / 100);
+
+    // View-space normals stored unsigned: the same world normals.
+    HostGBuffer viewSpace = g;
+    viewSpace.normal = viewNormalImage;
+    viewSpace.normalSpace = HostNormalSpace::View;
+    viewSpace.normalEncoding = HostNormalEncoding::Unsigned;
+    withHost.hostGBuffer = &viewSpace;
+    const RenderedFrame turned = renderer.render(scene, withHost);
+    std::size_t normalGaps = 0;
+    for (std::size_t i = 0; i < pixels; ++i)
+      normalGaps += relativeGap(glm::vec3(turned.gbuffer.texels[i].normal), glm::vec3(hosted.gbuffer.texels[i].normal),
+                                0.0f) > 1e-5f;
+    EXPECT_EQ(normalGaps, 0u);
+
+    // Refused, naming the field, and changing nothing: the next frame is as before.
+    auto refused = [&](HostGBuffer bad) {
+      RenderOptions o = plain;
+      o.hostGBuffer = &bad;
+      return errorOf([&] { (void)renderer.render(scene, o); });
+    };
+    HostGBuffer bad = g;
+    bad.depth.view = VK_NULL_HANDLE;
+    EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.depth.view"), std::string::npos) << refused(bad);
+    bad = g;
+    bad.width = width + 1;
+    EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.width"), std::string::npos) << refused(bad);
+    bad = g;
+    bad.normal.format = VK_FORMAT_R32G32B32A32_UINT;
+    EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.normal.format"), std::string::npos) << refused(bad);
+    bad = g;
+    bad.albedo.layout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.albedo.layout"), std::string::npos) << refused(bad);
+    bad = g;
+    bad.worldToView[0][0] = 2.0;
+    EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.worldToView"), std::string::npos) << refused(bad);
+    bad = g;
+    bad.viewToClip = glm::dmat4(0.0);
+    EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.viewToClip"), std::string::npos) << refused(bad);
+    bad = g;
+    bad.voxelSize = std::nan("");
+    EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.voxelSize"), std::string::npos) << refused(bad);
+    bad = g;
+    bad.normalSpace = static_cast<HostNormalSpace>(7);
+    EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.normalSpace"), std::string::npos) << refused(bad);
+    withHost.hostGBuffer = &g;
+    const RenderedFrame again = renderer.render(scene, withHost);
+    EXPECT_TRUE(test::sameBytes(again.shadowTerms, hosted.shadowTerms));
+    EXPECT_TRUE(test::sameBytes(again.color, hosted.color));
+    // Back to the library's own G-buffer: its frame again, bit for bit.
+    const RenderedFrame back = renderer.render(scene, plain);
+    EXPECT_TRUE(test::sameBytes(back.gbuffer.texels, own.gbuffer.texels));
+    EXPECT_TRUE(test::sameBytes(back.shadowTerms, own.shadowTerms));
+    EXPECT_TRUE(test::sameBytes(back.color, own.color));
+
+    std::unique_ptr<Tracer> cpu = makeCpuTracer();
+    FrameRenderer cpuRenderer(*cpu);
+    EXPECT_NE(errorOf([&] { (void)cpuRenderer.render(scene, withHost); }).find("needs the Vulkan backend"),
+              std::string::npos);
   }
   host.destroy();
   const std::vector<std::string> messages = host.messages();

@@ -43,6 +43,8 @@ namespace vs::vk {
   X(vkDestroyImage)                 \
   X(vkCreateImageView)              \
   X(vkDestroyImageView)             \
+  X(vkCreateSampler)                \
+  X(vkDestroySampler)               \
   X(vkAllocateMemory)               \
   X(vkFreeMemory)                   \
   X(vkMapMemory)                    \

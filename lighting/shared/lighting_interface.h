@@ -70,6 +70,19 @@ const uint VS_SPREAD_BINDING_VISIBILITY = 3u;  // uint per pixel and light, 1 wh
 const uint VS_SPREAD_BINDING_COUNT = 4u;
 const uint VS_SPREAD_GROUP_SIZE = 64u;
 
+// The import of a host engine's G-buffer (lighting/shaders/gbuffer_import.comp), its own set: the host's depth,
+// normal and albedo images (combined image samplers whose immutable sampler takes the nearest texel; read with
+// texelFetch), the HostGBufferRecord, and the lighting pass's G-buffer and visibility receivers, written in place.
+const uint VS_IMPORT_BINDING_DEPTH = 0u;      // sampled image: depth in .r
+const uint VS_IMPORT_BINDING_NORMAL = 1u;     // sampled image: normal in .rgb
+const uint VS_IMPORT_BINDING_ALBEDO = 2u;     // sampled image: albedo in .rgb (the normal image where none)
+const uint VS_IMPORT_BINDING_RECORD = 3u;     // HostGBufferRecord
+const uint VS_IMPORT_BINDING_GBUFFER = 4u;    // GBufferTexel per pixel (written)
+const uint VS_IMPORT_BINDING_RECEIVERS = 5u;  // VisibilityReceiver per pixel (written: vsReceiverOf the texel)
+const uint VS_IMPORT_BINDING_COUNT = 6u;
+const uint VS_IMPORT_GROUP_WIDTH = 8u;
+const uint VS_IMPORT_GROUP_HEIGHT = 8u;
+
 // The moment pass: 64 invocations a workgroup, over a flat index of its jobs' texels.
 const uint VS_EVSM_GROUP_SIZE = 64u;
 

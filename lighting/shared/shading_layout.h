@@ -73,6 +73,22 @@ struct ResolvePush {
   uvec4 counts;  // x: hits to resolve; y: instance records; zw: 0
 };
 
+// A host engine's G-buffer as the import pass reads it (lighting/shared/gbuffer_import.h,
+// lighting/shaders/gbuffer_import.comp): its matrices inverted in double on the host (lighting/host_gbuffer.h).
+struct HostGBufferRecord {
+  mat4 clipToView;   // the inverse of the host's view-to-clip projection
+  mat4 viewToWorld;  // the rotation of the host's view-to-world map (the eye's position is not in it)
+  vec4 eyeHigh;      // xyz: the eye's world position rounded to float; w: the receivers' world voxel size
+  vec4 eyeLow;       // xyz: what the rounding left; w: the depth value of a pixel with no surface (the sky)
+  vec4 forward;      // xyz: the camera's unit forward axis in view space (view depth = dot(view position, it))
+  uvec4 info;        // x, y: width, height; z: VS_HOST_NORMAL_*; w: VS_HOST_GBUFFER_* flags
+};
+// How the host's normal image holds a unit normal: as it is, or n * 0.5 + 0.5 (an unsigned normalised format).
+const uint VS_HOST_NORMAL_SIGNED = 0u;
+const uint VS_HOST_NORMAL_UNSIGNED = 1u;
+const uint VS_HOST_GBUFFER_VIEW_NORMALS = 1u;  // normals in view space, else world space
+const uint VS_HOST_GBUFFER_ALBEDO = 2u;        // an albedo image is bound, else albedo is white
+
 // A light as the pass shades it.
 struct ShadeLight {
   vec4 color;      // rgb: colour x intensity; w: 0
@@ -168,6 +184,12 @@ VS_OFFSET_CHECK(GBufferTexel, info, 48);
 VS_LAYOUT_CHECK(GBufferInstance, 112);
 VS_OFFSET_CHECK(GBufferInstance, palette, 96);
 VS_LAYOUT_CHECK(ResolvePush, 16);
+VS_LAYOUT_CHECK(HostGBufferRecord, 192);
+VS_OFFSET_CHECK(HostGBufferRecord, viewToWorld, 64);
+VS_OFFSET_CHECK(HostGBufferRecord, eyeHigh, 128);
+VS_OFFSET_CHECK(HostGBufferRecord, eyeLow, 144);
+VS_OFFSET_CHECK(HostGBufferRecord, forward, 160);
+VS_OFFSET_CHECK(HostGBufferRecord, info, 176);
 VS_LAYOUT_CHECK(SpreadPush, 16);
 VS_LAYOUT_CHECK(ShadeLight, 112);
 VS_OFFSET_CHECK(ShadeLight, evsm, 96);
