@@ -206,6 +206,10 @@ std::vector<std::int32_t> buildBoxTable(const SceneData& scene, std::uint64_t ma
   return table;
 }
 
+// Changed codes closer than this apart in a row are reported as one range: a copy region costs about as much
+// as a few words of data.
+constexpr int kRewriteGap = 8;
+
 BoxTableUpdate updateBoxTable(std::vector<std::int32_t>& table, const SceneData& scene, const SceneDelta& delta,
                               std::uint64_t maxElements) {
   BoxTableUpdate result;
@@ -291,8 +295,22 @@ BoxTableUpdate updateBoxTable(std::vector<std::int32_t>& table, const SceneData&
       for (int y = aLo.y; y < aHi.y; ++y) {
         const std::uint64_t first = objectFirst + (std::uint64_t(z) * dims.y + y) * dims.x + aLo.x;
         const std::int32_t* src = &window[(std::size_t(z - wLo.z) * w.y + (y - wLo.y)) * w.x + (aLo.x - wLo.x)];
-        std::copy(src, src + (aHi.x - aLo.x), table.begin() + std::ptrdiff_t(first));
-        rewrote(first, std::uint64_t(aHi.x - aLo.x));
+        // Only the codes that differ are reported (runs closer than kRewriteGap apart joined): most codes of the
+        // neighbourhood keep their value, and each reported one is copied to the device again.
+        std::int32_t* dst = table.data() + first;
+        const int n = aHi.x - aLo.x;
+        int run = -1, last = -1;
+        for (int x = 0; x < n; ++x) {
+          if (dst[x] == src[x]) continue;
+          dst[x] = src[x];
+          if (run >= 0 && x - last > kRewriteGap) {
+            rewrote(first + std::uint64_t(run), std::uint64_t(last + 1 - run));
+            run = -1;
+          }
+          if (run < 0) run = x;
+          last = x;
+        }
+        if (run >= 0) rewrote(first + std::uint64_t(run), std::uint64_t(last + 1 - run));
       }
   }
 

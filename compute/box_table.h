@@ -40,7 +40,8 @@ struct BoxTableUpdate {
   // arrays out again, an object was added (the codes moved), the table was empty, or the edited scene's table
   // exceeds maxElements. Every element may differ.
   bool rebuilt = false;
-  // Otherwise the element ranges rewritten, as (first, count), sorted, disjoint and not touching. The table
+  // Otherwise the element ranges whose values changed (with, at most, a few unchanged elements between changed
+  // ones), as (first, count), sorted, disjoint and not touching: every other element kept its value. The table
   // kept its size, or grew at its end (the occupancy copy of an extended last object), which they cover.
   std::vector<std::pair<std::size_t, std::size_t>> rewritten;
 };

@@ -537,7 +537,7 @@ TEST(FrameLoop, AStillFrameDoesNothingAndADigUploadsLittle) {
     game.scene.fillVoxels(game.ground, VoxelBox{{40, 4, 40}, {44, 8, 44}}, 0);
     const RenderedFrame& digFrame = renderer.render(game.scene, options);
     const FrameStats dig = digFrame.stats;  // a copy: the frames below reuse the renderer's
-    EXPECT_LE(tracer->bytesUploaded() - before, 64u * 1024u) << backend << ": the scene update of a 4^3 hole";
+    EXPECT_LE(tracer->bytesUploaded() - before, 4u * 1024u) << backend << ": the scene update of a 4^3 hole";
     EXPECT_LT(dig.texelsTraced, dig.layerTexels / 20) << backend;
     // The Vulkan lighting pass keeps the layers, the G-buffer and the answers in place: the dig writes its traced
     // rows and its marked pixels' inputs, less than the store alone (4 bytes a texel) that a whole pass uploads.
@@ -559,7 +559,7 @@ TEST(FrameLoop, AStillFrameDoesNothingAndADigUploadsLittle) {
       game.scene.fillVoxels(game.ground, VoxelBox{{8 + 20 * b, 8, 60}, {24 + 20 * b, 24, 76}}, 2);
       const FrameStats& block = renderer.render(game.scene, options).stats;
       if (b > 0) {
-        EXPECT_LE(tracer->bytesUploaded() - at, 64u * 1024u) << backend << ": the scene update of block " << b;
+        EXPECT_LE(tracer->bytesUploaded() - at, 16u * 1024u) << backend << ": the scene update of block " << b;
         blockUploads = std::max(blockUploads, block.bytesUploaded);
       }
     }

@@ -510,11 +510,25 @@ TEST(SceneDelta, LocalBoxTableEqualsWholeBuildInsideLargeObjects) {
     }
     SceneDelta delta = scene.updateObject(1, ptrs, edit);
     ASSERT_FALSE(delta.voxelLayout) << step;
+    const std::vector<std::int32_t> before = table;
     const BoxTableUpdate u = updateBoxTable(table, scene, delta);
     EXPECT_FALSE(u.rebuilt) << step;
     const std::vector<std::int32_t> full = buildBoxTable(scene);
     ASSERT_EQ(table.size(), full.size()) << step;
     EXPECT_TRUE(table == full) << "step " << step;
+    // Every element that changed lies in a reported range (a device copy updated by those ranges alone equals
+    // the table), and the ranges report little that did not change.
+    std::vector<std::uint8_t> reported(table.size(), 0);
+    for (const auto& [first, count] : u.rewritten) std::fill_n(reported.begin() + std::ptrdiff_t(first), count, 1);
+    std::size_t missed = 0, unchanged = 0, changed = 0;
+    for (std::size_t i = 0; i < table.size(); ++i) {
+      const bool differs = i >= before.size() || before[i] != table[i];
+      changed += differs;
+      missed += differs && !reported[i];
+      unchanged += !differs && reported[i];
+    }
+    EXPECT_EQ(missed, 0u) << "step " << step;
+    EXPECT_LE(unchanged, 8 * changed + 64) << "step " << step;
     // Only the codes within kMaxBoxExtent bricks of the edit, and the occupancy words the edit wrote.
     std::size_t rewritten = 0, bound = 0;
     for (const auto& r : u.rewritten) rewritten += r.second;
