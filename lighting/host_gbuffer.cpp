@@ -1,5 +1,6 @@
 #include "lighting/host_gbuffer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -68,9 +69,10 @@ void checkHostGBuffer(const VulkanContext& context, const HostGBuffer& host, int
 }
 
 gpu::HostGBufferRecord hostGBufferRecord(const HostGBuffer& host, int width, int height) {
-  if (host.width != width || host.height != height)
-    refuse("width", std::to_string(host.width) + "x" + std::to_string(host.height) + " images for a frame of " +
-                        std::to_string(width) + "x" + std::to_string(height) + " pixels");
+  if (host.width != width)
+    refuse("width", std::to_string(host.width) + " for a frame " + std::to_string(width) + " pixels wide");
+  if (host.height != height)
+    refuse("height", std::to_string(host.height) + " for a frame " + std::to_string(height) + " pixels high");
   if (host.depth.view == VK_NULL_HANDLE) refuse("depth.view", "a null VkImageView (the depth image is required)");
   if (host.normal.view == VK_NULL_HANDLE) refuse("normal.view", "a null VkImageView (the normal image is required)");
   if (host.normalEncoding != HostNormalEncoding::Signed && host.normalEncoding != HostNormalEncoding::Unsigned)
@@ -82,14 +84,15 @@ gpu::HostGBufferRecord hostGBufferRecord(const HostGBuffer& host, int width, int
     refuse("voxelSize", "must be finite and above 0, not " + std::to_string(host.voxelSize));
   if (!finite(host.worldToView)) refuse("worldToView", "holds a value that is not finite");
   if (!finite(host.viewToClip)) refuse("viewToClip", "holds a value that is not finite");
-  // A rigid map: orthonormal columns of its rotation, (0, 0, 0, 1) as its last row.
+  // A rigid map: orthonormal columns of its rotation, (0, 0, 0, 1) as its last row. The tolerance admits a view
+  // matrix an engine computed in float (a few units in the last place of each entry), not a scale or a shear.
   const glm::dmat3 rotation(host.worldToView);
   const glm::dmat3 gram = glm::transpose(rotation) * rotation;
-  double off = std::abs(host.worldToView[0][3]) + std::abs(host.worldToView[1][3]) + std::abs(host.worldToView[2][3]) +
-               std::abs(host.worldToView[3][3] - 1.0);
+  double off = std::max({std::abs(host.worldToView[0][3]), std::abs(host.worldToView[1][3]),
+                         std::abs(host.worldToView[2][3]), std::abs(host.worldToView[3][3] - 1.0)});
   for (int c = 0; c < 3; ++c)
-    for (int r = 0; r < 3; ++r) off += std::abs(gram[c][r] - (c == r ? 1.0 : 0.0));
-  if (off > 1e-6) refuse("worldToView", "not a rotation and a translation (scale, shear or projection in it)");
+    for (int r = 0; r < 3; ++r) off = std::max(off, std::abs(gram[c][r] - (c == r ? 1.0 : 0.0)));
+  if (off > 1e-4) refuse("worldToView", "not a rotation and a translation (scale, shear or projection in it)");
   const double det = glm::determinant(host.viewToClip);
   if (!std::isfinite(det) || std::abs(det) < 1e-300) refuse("viewToClip", "not invertible");
 

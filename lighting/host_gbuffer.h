@@ -46,7 +46,8 @@ struct HostGBuffer {
   HostNormalEncoding normalEncoding = HostNormalEncoding::Signed;
   HostNormalSpace normalSpace = HostNormalSpace::World;
   HostImage albedo;           // optional (a null view: white): linear albedo in red, green and blue
-  // The host's matrices as its G-buffer pass used them: worldToView a rotation and a translation (no scale),
+  // The host's matrices as its G-buffer pass used them: worldToView a rotation and a translation (no scale; each
+  // entry of its rotation's R^T R within 1e-4 of the identity's, so a matrix computed in float passes),
   // viewToClip its projection (reversed or infinite depth included). The frame's cascades are fitted to the
   // scene's camera, which should be the same camera: receivers outside every cascade are lit.
   glm::dmat4 worldToView{1.0};
@@ -58,7 +59,7 @@ struct HostGBuffer {
 // The import pass's record of `host` for a frame of width x height pixels: the inverse projection and the
 // view-to-world rotation inverted in double, the eye split into two floats, the camera's forward axis in view
 // space. Throws vs::Error(BadInput) naming the field ("RenderOptions.hostGBuffer.<field>: ...") for a null depth
-// or normal view, a size other than the frame's, an enumerator out of range, non-finite or degenerate matrices
+// or normal view, a width or height other than the frame's, an enumerator out of range, non-finite or degenerate matrices
 // (worldToView not a rotation and translation, viewToClip not invertible), a non-finite skyDepth, or a voxelSize
 // that is not finite and positive. The formats and layouts are checked against the device by the import
 // (VulkanLighting::importGBuffer).

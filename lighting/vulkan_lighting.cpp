@@ -91,9 +91,10 @@ struct LightingPipelines {
     vk::UniquePipeline pipeline;
     vk::UniqueShaderModule module;
   };
-  HelperPass resolve, spread, import;
-  // The import's immutable sampler (nearest texel; texelFetch reads by texel anyway), made with the pass.
+  // The import's immutable sampler (nearest texel; texelFetch reads by texel anyway), made with the pass;
+  // declared before the passes, whose set layouts use it, so that it is destroyed after them.
   vk::UniqueSampler nearest;
+  HelperPass resolve, spread, import;
 
   // At most this many specialised variants are kept: a caller that keeps switching lights' filters recompiles,
   // it does not grow without bound.

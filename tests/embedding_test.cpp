@@ -56,6 +56,7 @@ struct HostDispatch {
   bool hideR32fStorage = false;
   bool reportFourStorageBuffers = false;
   bool hideCmdDispatch = false;
+  std::atomic<bool> failBufferCreation{false};  // vkCreateBuffer answers VK_ERROR_OUT_OF_DEVICE_MEMORY
   PFN_vkGetDeviceProcAddr getDeviceProcAddr = nullptr;
   PFN_vkQueueSubmit queueSubmit = nullptr;
   PFN_vkCreateBuffer createBuffer = nullptr;
@@ -71,6 +72,7 @@ struct HostDispatch {
     submits = buffersCreated = buffersDestroyed = dispatches = pipelinesCreated = pipelinesThroughHostCache = 0;
     hostCache = VK_NULL_HANDLE;
     reportVulkan10 = hideR32fStorage = reportFourStorageBuffers = hideCmdDispatch = false;
+    failBufferCreation = false;
   }
   bool wasRequested(const std::string& name) {
     std::lock_guard lock(mutex);
@@ -88,6 +90,7 @@ VKAPI_ATTR VkResult VKAPI_CALL countedQueueSubmit(VkQueue queue, std::uint32_t c
 
 VKAPI_ATTR VkResult VKAPI_CALL countedCreateBuffer(VkDevice device, const VkBufferCreateInfo* info,
                                                    const VkAllocationCallbacks* allocator, VkBuffer* buffer) {
+  if (dispatch.failBufferCreation) return VK_ERROR_OUT_OF_DEVICE_MEMORY;
   ++dispatch.buffersCreated;
   return dispatch.createBuffer(device, info, allocator, buffer);
 }
@@ -993,7 +996,13 @@ TEST(Embedding, TheHostsGBufferLightsTheFrameAsTheLibrarysOwn) {
                                 0.0f) > 1e-5f;
     EXPECT_EQ(normalGaps, 0u);
 
-    // Refused, naming the field, and changing nothing: the next frame is as before.
+    // Back to the library's own G-buffer: its frame again, bit for bit.
+    const RenderedFrame back = renderer.render(scene, plain);
+    EXPECT_TRUE(test::sameBytes(back.gbuffer.texels, own.gbuffer.texels));
+    EXPECT_TRUE(test::sameBytes(back.shadowTerms, own.shadowTerms));
+    EXPECT_TRUE(test::sameBytes(back.color, own.color));
+
+    // Refused, naming the field, and changing nothing: the plain frame after them is a still frame.
     auto refused = [&](HostGBuffer bad) {
       RenderOptions o = plain;
       o.hostGBuffer = &bad;
@@ -1006,13 +1015,16 @@ TEST(Embedding, TheHostsGBufferLightsTheFrameAsTheLibrarysOwn) {
     bad.width = width + 1;
     EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.width"), std::string::npos) << refused(bad);
     bad = g;
+    bad.height = height - 1;
+    EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.height"), std::string::npos) << refused(bad);
+    bad = g;
     bad.normal.format = VK_FORMAT_R32G32B32A32_UINT;
     EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.normal.format"), std::string::npos) << refused(bad);
     bad = g;
     bad.albedo.layout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
     EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.albedo.layout"), std::string::npos) << refused(bad);
     bad = g;
-    bad.worldToView[0][0] = 2.0;
+    bad.worldToView[0][0] = 1.01;
     EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.worldToView"), std::string::npos) << refused(bad);
     bad = g;
     bad.viewToClip = glm::dmat4(0.0);
@@ -1023,20 +1035,77 @@ TEST(Embedding, TheHostsGBufferLightsTheFrameAsTheLibrarysOwn) {
     bad = g;
     bad.normalSpace = static_cast<HostNormalSpace>(7);
     EXPECT_NE(refused(bad).find("RenderOptions.hostGBuffer.normalSpace"), std::string::npos) << refused(bad);
-    withHost.hostGBuffer = &g;
-    const RenderedFrame again = renderer.render(scene, withHost);
-    EXPECT_TRUE(test::sameBytes(again.shadowTerms, hosted.shadowTerms));
-    EXPECT_TRUE(test::sameBytes(again.color, hosted.color));
-    // Back to the library's own G-buffer: its frame again, bit for bit.
-    const RenderedFrame back = renderer.render(scene, plain);
-    EXPECT_TRUE(test::sameBytes(back.gbuffer.texels, own.gbuffer.texels));
-    EXPECT_TRUE(test::sameBytes(back.shadowTerms, own.shadowTerms));
-    EXPECT_TRUE(test::sameBytes(back.color, own.color));
+    const RenderedFrame still = renderer.render(scene, plain);
+    EXPECT_FALSE(still.stats.full);
+    EXPECT_EQ(still.stats.texelsTraced + still.stats.primaryRays + still.stats.visibilityRays + still.stats.pixelsShaded, 0u);
+    EXPECT_EQ(still.stats.bytesUploaded + still.stats.bytesReadBack, 0u);
+    EXPECT_TRUE(test::sameBytes(still.color, own.color));
+
+    // The engine's view matrix computed in float (its rotation orthonormal to float precision only) is taken,
+    // and gives the same frame to float precision.
+    HostGBuffer floatView = g;
+    floatView.worldToView = glm::dmat4(glm::mat4(g.worldToView));
+    withHost.hostGBuffer = &floatView;
+    const RenderedFrame inFloat = renderer.render(scene, withHost);
+    EXPECT_EQ(inFloat.stats.primaryRays, 0u);
+    std::size_t floatDiffer = 0;
+    for (std::size_t i = 0; i < own.shadowTerms.size(); ++i) floatDiffer += inFloat.shadowTerms[i] != own.shadowTerms[i];
+    EXPECT_LE(floatDiffer, own.shadowTerms.size() / 200);
 
     std::unique_ptr<Tracer> cpu = makeCpuTracer();
     FrameRenderer cpuRenderer(*cpu);
     EXPECT_NE(errorOf([&] { (void)cpuRenderer.render(scene, withHost); }).find("needs the Vulkan backend"),
               std::string::npos);
+  }
+  host.destroy();
+  const std::vector<std::string> messages = host.messages();
+  EXPECT_TRUE(messages.empty()) << messages.size() << " validation messages, the first: " << messages.front();
+}
+
+// A scene update that fails part-way on the device (here: no memory for its staging buffer, after the box table's
+// codes were already recomputed on the host) leaves the Vulkan tracer refusing to trace, saying why, rather than
+// tracing a half-updated scene; a whole upload() then gives the edited scene's hits, as a new tracer's.
+TEST(Embedding, AnUpdateThatFailsPartWayAsksForAWholeUpload) {
+  dispatch.reset();
+  Scene scene = test::demoScene("embedding_failed_update", 64, 0.0f);
+  HostEngine host;
+  {
+    VulkanOptions o;
+    o.context = std::make_shared<VulkanContext>(host.handles());
+    o.validation = true;
+    VulkanTracer tracer(o);
+    tracer.upload(scene.data());
+    std::size_t ground = scene.assetObjects()[0].first;
+    for (std::size_t a = 0; a < scene.desc().assets.size(); ++a)
+      if (scene.desc().assets[a].name == "ground") ground = scene.assetObjects()[a].first;
+    const std::uint64_t revision = scene.revision();
+    const VoxelBox bounds = scene.objects()[ground].brickmap.bounds();
+    const glm::ivec3 at = (bounds.min + bounds.max) / 2;
+    scene.fillVoxels(ground, VoxelBox{at - glm::ivec3(6), at + glm::ivec3(6)}, 0);
+    std::vector<const SceneChange*> changes;
+    ASSERT_TRUE(scene.changesSince(revision, changes));
+    SceneDelta delta;
+    for (const SceneChange* c : changes) delta.merge(c->arrays);
+    ASSERT_FALSE(delta.editedBricks.empty());
+    dispatch.failBufferCreation = true;
+    const std::string failed = errorOf([&] { tracer.update(scene.data(), delta); });
+    dispatch.failBufferCreation = false;
+    EXPECT_NE(failed, "(no error)");
+    const CameraFrame camera = cameraFrame(*scene.desc().camera, 96, 54);
+    const gpu::CameraRays rays = cameraRaysOf(camera);
+    std::vector<gpu::RayHit> hits(std::size_t(camera.width) * std::size_t(camera.height));
+    const std::string refused = errorOf([&] { tracer.traceCamera(rays, {}, hits); });
+    EXPECT_NE(refused.find("failed part-way"), std::string::npos) << refused;
+    tracer.upload(scene.data());
+    tracer.traceCamera(rays, {}, hits);
+    VulkanOptions fresh;
+    fresh.validation = true;
+    VulkanTracer reference(fresh);
+    reference.upload(scene.data());
+    std::vector<gpu::RayHit> expected(hits.size());
+    reference.traceCamera(rays, {}, expected);
+    EXPECT_TRUE(test::sameBytes(hits, expected));
+    EXPECT_TRUE(reference.validationMessages().empty());
   }
   host.destroy();
   const std::vector<std::string> messages = host.messages();

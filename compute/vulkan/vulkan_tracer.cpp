@@ -431,6 +431,7 @@ struct VulkanTracer::Impl {
     boxTableUploaded = !table.empty();
     nodeCount = static_cast<std::uint32_t>(s.nodes.size());
     uploaded = true;
+    updateFailed = false;
   }
 
   // Record arrays are bound whole as texel buffers: only the device's texel limit applies, not the splitting
@@ -456,7 +457,7 @@ struct VulkanTracer::Impl {
 
   // The instances and the BVH only (record arrays 1..4), keeping the voxel arrays and the box table.
   void uploadInstances(const SceneData& scene) {
-    if (!uploaded) throwRuntime("VulkanTracer::uploadInstances called before upload()");
+    requireUploaded("VulkanTracer::uploadInstances called");
     const SceneArrays s = SceneArrays::from(scene);
     const std::uint64_t voxelArrays[kSplitArrayCount] = {s.regionTable.size(), s.regions.size(), s.sectors.size(),
                                                          s.bricks.size(), s.occupancy.size(), s.payload.size()};
@@ -543,8 +544,17 @@ struct VulkanTracer::Impl {
     }
   }
 
+  // Whether the device holds a whole scene; else vs::Error(Runtime) naming `what` and why not.
+  bool updateFailed = false;  // an update() failed part-way since the last upload()
+  void requireUploaded(const char* what) const {
+    if (uploaded) return;
+    throwRuntime(std::string(what) + (updateFailed ? " after an update that failed part-way left the device's "
+                                                     "scene incomplete; call upload() again"
+                                                   : " before upload()"));
+  }
+
   void update(const SceneData& scene, const SceneDelta& delta) {
-    if (!uploaded) throwRuntime("VulkanTracer::update called before upload()");
+    requireUploaded("VulkanTracer::update called");
     const VulkanDeviceInfo& info = context.info();
     const SceneArrays s = SceneArrays::from(scene);
     const std::array<HostArray, kSplitArrayCount> splitSrc = splitArrays(s);
@@ -622,6 +632,20 @@ struct VulkanTracer::Impl {
       }
     }
 
+    // From here the device's arrays and the host's copy of the box table change: a failure part-way (a device
+    // error, memory) leaves them out of step, so the tracer then asks for a whole upload() before any trace
+    // rather than tracing a half-updated scene (the table's updates name only the codes that changed, which a
+    // later update would not send again).
+    struct Unwound {
+      Impl& impl;
+      bool done = false;
+      ~Unwound() {
+        if (done) return;
+        impl.uploaded = false;
+        impl.updateFailed = true;
+        impl.hostTable.clear();
+      }
+    } unwound{*this};
     std::vector<UploadRegion> regions;
     for (int a = 0; a < kSplitArrayCount; ++a) {
       DeviceArray& d = split[a];
@@ -672,6 +696,7 @@ struct VulkanTracer::Impl {
     }
     uploadRegions(regions);
     nodeCount = static_cast<std::uint32_t>(s.nodes.size());
+    unwound.done = true;
   }
 
   static std::uint64_t bytesOfArray(const HostArray& a) { return a.elements * a.size; }
@@ -763,7 +788,7 @@ struct VulkanTracer::Impl {
   TraceStats trace(std::span<const gpu::TraceView> views, std::vector<ShadowLayer>& layers,
                    const DeviceTexelTarget* target = nullptr) {
     auto t0 = std::chrono::steady_clock::now();
-    if (!uploaded) throwRuntime("VulkanTracer::trace called before upload()");
+    requireUploaded("VulkanTracer::trace called");
     TraceStats stats;
     if (target) {
       if (target->buffer == VK_NULL_HANDLE) throwBadInput("VulkanTracer::traceInto: no target buffer");
@@ -986,7 +1011,7 @@ struct VulkanTracer::Impl {
                        std::uint64_t rayCount = 0, std::size_t sourceBytes = 0,
                        const std::function<void(std::byte*)>& writeSource = {}) {
     auto t0 = std::chrono::steady_clock::now();
-    if (!uploaded) throwRuntime("VulkanTracer: rays traced before upload()");
+    requireUploaded("VulkanTracer: rays traced");
     if (kind != gpu::RayKind::Camera && kind != gpu::RayKind::Visibility) rayCount = rays.size();
     TraceStats stats;
     stats.rays = rayCount;
