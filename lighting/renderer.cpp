@@ -293,6 +293,12 @@ struct FrameRenderer::State {
 
   CameraFrame camera;
   RenderOptions options;
+  // The host's working copy of the kept G-buffer (Vulkan): the marking of a frame's changed pixels reads it.
+  // It is stale after a frame that left its G-buffer on the device alone (RenderOptions::readGBuffer false);
+  // the first frame that marks pixels from it reads the device's back first. While the caller asks for no
+  // G-buffer, the copy waits here instead of in RenderedFrame::gbuffer.
+  bool gbufferOnHost = true;
+  std::vector<gpu::GBufferTexel> keptTexels;
   // The layer store: the views of the last frame with shadow maps, each layer's first texel, every texel
   // (cascades in ring order). A frame without maps leaves it for the next one that has them.
   std::vector<ViewKey> keys;
@@ -743,6 +749,24 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   // Per-frame arrays keep their storage across frames: fresh pages of a whole frame's rays and hits cost more
   // to fault in than to fill.
   std::vector<gpu::RayHit>& hits = s.hits;
+  if (frame.gbuffer.texels.empty()) frame.gbuffer.texels.swap(s.keptTexels);
+  if (!vulkan) s.gbufferOnHost = true;
+  // The host's copy brought up to date from the device's before host code reads it (a frame after one that
+  // kept its G-buffer on the device alone); the pass holds it whole (no frame of another size came between,
+  // which would have redone every pixel).
+  auto hostGBuffer = [&] {
+    if (s.gbufferOnHost) return;
+    frame.gbuffer.width = camera.width;
+    frame.gbuffer.height = camera.height;
+    frame.gbuffer.texels.resize(pixelCount);
+    LightingTraffic traffic;
+    lightingPass().readGBuffer(frame.gbuffer, &traffic);
+    stats.bytesReadBack += traffic.readBack;
+    s.gbufferOnHost = true;
+  };
+  // A whole G-buffer made on the device stays there unless the caller asks for it: no hit is read back.
+  const bool gbufferOnDeviceOnly = vulkan && !options.readGBuffer;
+  bool hitsReadBack = false;
   // What the resolve reads besides the hits, made once for the host's resolve and the device's.
   GBufferTables tables;
   if (!options.hostGBuffer && (allPixels || !boxes.empty())) tables = gbufferTables(scene);
@@ -754,20 +778,34 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
     frame.gbuffer.width = camera.width;
     frame.gbuffer.height = camera.height;
     frame.gbuffer.texels.resize(pixelCount);
-    s.lighting->readGBuffer(frame.gbuffer, &traffic);
+    s.gbufferOnHost = false;
+    if (!gbufferOnDeviceOnly) hostGBuffer();
     stats.bytesUploaded += traffic.uploaded;
     stats.bytesReadBack += traffic.readBack;
     stats.dispatches += traffic.dispatches;
+  } else if (allPixels && gbufferOnDeviceOnly) {
+    // The host's copy is sized for the lighting pass's checks, and stale until read back.
+    const TraceStats ts = vulkan->traceCameraOnDevice(cameraRecord);
+    stats.dispatches += std::max(ts.dispatches, 1);
+    frame.gbuffer.width = camera.width;
+    frame.gbuffer.height = camera.height;
+    frame.gbuffer.texels.resize(pixelCount);
+    s.gbufferOnHost = false;
+    stats.primaryRays = pixelCount;
   } else if (allPixels) {
     hits.resize(pixelCount);
     const TraceStats ts = tracer_.traceCamera(cameraRecord, {}, hits);
     stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
     resolveGBuffer(tables, camera, hits, frame.gbuffer);
+    s.gbufferOnHost = true;
+    hitsReadBack = true;
     stats.primaryRays = pixelCount;
   } else if (!boxes.empty()) {
     for (const Aabb& b : boxes) markBoxPixels(camera, b, marks);
     primaryPixels = markedPixels(marks);
     if (!primaryPixels.empty()) {
+      hostGBuffer();  // the listed texels go into a whole copy
+      hitsReadBack = true;
       hits.resize(primaryPixels.size());
       const TraceStats ts = tracer_.traceCamera(cameraRecord, primaryPixels, hits);
       stats.dispatches += vulkan ? std::max(ts.dispatches, 1) : 1;
@@ -777,7 +815,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   }
   if (vulkan && stats.primaryRays > 0 && !options.hostGBuffer) {
     stats.bytesUploaded += sizeof(gpu::CameraRays) + primaryPixels.size() * sizeof(std::uint32_t);
-    stats.bytesReadBack += stats.primaryRays * sizeof(gpu::RayHit);
+    if (hitsReadBack) stats.bytesReadBack += stats.primaryRays * sizeof(gpu::RayHit);
     // The same hits resolved on the device into the lighting pass's G-buffer, which then reads it in place: the
     // host's copy above serves the marking below and the caller.
     LightingTraffic traffic;
@@ -830,6 +868,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
         ts = vulkan->traceVisibility(setup.frame, setup.lights, onDevice, answers);
         receiverBytes += pixels.size_bytes();
       } else {
+        hostGBuffer();
         visibilityReceivers(frame.gbuffer, pixels, receivers);
         ts = tracer_.traceVisibility(setup.frame, setup.lights, receivers, answers);
         receiverBytes += receivers.size() * sizeof(gpu::VisibilityReceiver);
@@ -861,6 +900,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
       std::fill(marks.begin(), marks.end(), std::uint8_t(1));
     } else {
       visible.swap(s.visible);
+      if (!boxes.empty()) hostGBuffer();
       markVisibilityRaysMeeting(frame.gbuffer, inputs.lights, inputs.rayLength, scene.worldBounds(), boxes, marks);
       const std::vector<std::uint32_t> pixels = markedPixels(marks);
       if (!pixels.empty()) traceAndSpread(pixels);
@@ -906,6 +946,7 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
         }
       }
       if (touched.empty()) continue;
+      hostGBuffer();
       tbb::parallel_for(std::size_t(0), pixelCount, [&](std::size_t px) {
         const gpu::GBufferTexel& g = frame.gbuffer.texels[px];
         if (marks[px] || g.info.w == 0u) return;
@@ -1049,6 +1090,8 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
       }
   }
 
+  // The G-buffer the caller asked for is this frame's.
+  if (vulkan && options.readGBuffer) hostGBuffer();
   stats.bytesUploaded += tracer_.bytesUploaded() - uploadedBefore;
   frame.width = camera.width;
   frame.height = camera.height;
@@ -1058,6 +1101,8 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   frame.layersTraced = stats.layersTraced;
   frame.timings = timings;
   frame.stats = std::move(stats);
+  // One not asked for waits as the working copy.
+  if (vulkan && !options.readGBuffer) s.keptTexels.swap(frame.gbuffer.texels);
   s.camera = camera;
   s.options = options;
   if (needMaps) {

@@ -37,6 +37,11 @@ struct RenderOptions {
   // read it back whatever readColor says. Neither changes what is traced or shaded.
   bool readColor = true;
   bool readShadowTerms = true;
+  // Whether a frame on the Vulkan backend copies its G-buffer to the host (RenderedFrame::gbuffer). Without it a
+  // frame that redoes every pixel (a moved camera) leaves the primary hits and the G-buffer on the device, and
+  // RenderedFrame::gbuffer is empty (FrameRenderer::deviceGBuffer() reads it back on demand); a later frame that
+  // redoes only some pixels reads the G-buffer back once, to find them. The CPU backend always fills it.
+  bool readGBuffer = true;
   // A host engine's own G-buffer on the tracer's device (lighting/host_gbuffer.h; README "Embedding in an
   // engine"): the frame is lit, and its contact rays traced, from the host's surfaces instead of the library's
   // primary rays (none is traced). Every pixel is imported, traced toward the lights with rays and shaded again
@@ -93,7 +98,7 @@ struct FrameStats {
 struct RenderedFrame {
   int width = 0, height = 0;
   std::vector<glm::vec4> color;    // linear HDR, row 0 at the top (empty: not read back, RenderOptions)
-  GBuffer gbuffer;
+  GBuffer gbuffer;                 // empty texels: not read back (RenderOptions::readGBuffer)
   std::vector<float> shadowTerms;  // per pixel and light (empty: not read back, RenderOptions)
   std::vector<std::string> lightNames;
   std::vector<LightView> views;    // the frame's shadow views (none with ray-traced shadows)

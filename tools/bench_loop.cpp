@@ -386,7 +386,11 @@ void runBackend(const LoopBenchOptions& opt, const std::string& name, Tracer& tr
                 std::vector<FrameRecord>& records) {
   Scene scene = loaded;  // each backend starts from the demo as it was loaded
   FrameRenderer renderer(tracer);
-  LoopRun run{opt, name, scene, renderer, {}, records};
+  // A game's frame: it shows the lit colour (and reads the shadow terms, as the figures before did), and has no
+  // use for the G-buffer, which a Vulkan frame then keeps on the device.
+  RenderOptions gameOptions;
+  gameOptions.readGBuffer = false;
+  LoopRun run{opt, name, scene, renderer, gameOptions, records};
   run.renderOptions.width = opt.width;
   run.renderOptions.height = opt.height;
   const std::size_t first = records.size();

@@ -1090,7 +1090,7 @@ struct VulkanTracer::Impl {
                                                VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1,
                                                &toHost, 0, nullptr, 0, nullptr);
     });
-    std::memcpy(out, results.mapped, outBytes);
+    if (out) std::memcpy(out, results.mapped, outBytes);  // null: the results stay on the device
     if (queryPool) stats.gpuMs = timestampMs(1)[0];
     stats.wallMs = msSince(t0);
     double ms = stats.gpuMs > 0.0 ? stats.gpuMs : stats.wallMs;
@@ -1189,6 +1189,21 @@ TraceStats VulkanTracer::traceCamera(const gpu::CameraRays& camera, std::span<co
   impl_->cameraTraceListed = !pixels.empty();
   return stats;
 }
+TraceStats VulkanTracer::traceCameraOnDevice(const gpu::CameraRays& camera) {
+  CallInProgress call(impl_->busy, "traceCameraOnDevice");
+  impl_->cameraTraceRays = 0;
+  impl_->visibilityTrace = {};
+  const std::uint64_t count = std::uint64_t(camera.size.x) * std::uint64_t(camera.size.y);
+  checkCameraTrace(camera, {}, count);
+  gpu::CameraRays record = camera;
+  record.size.z = 0;
+  const TraceStats stats = impl_->traceRays(gpu::RayKind::Camera, {}, nullptr, sizeof(gpu::RayHit), &record, {}, count);
+  impl_->cameraTraceRays = count;
+  impl_->cameraTracePixels = count;
+  impl_->cameraTraceListed = false;
+  return stats;
+}
+
 TraceStats VulkanTracer::traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
                                          const DeviceReceivers& receivers, std::span<std::uint32_t> occluded) {
   CallInProgress call(impl_->busy, "traceVisibility");

@@ -187,6 +187,9 @@ class VulkanTracer {
   // Tracer::traceCamera: the rays made on the device from the record; only it and the pixel list go up.
   TraceStats traceCamera(const gpu::CameraRays& camera, std::span<const std::uint32_t> pixels,
                          std::span<gpu::RayHit> hits);
+  // Every pixel's camera ray, its hit left on the device for a pass that reads it in place (lastCameraTrace):
+  // nothing is read back. Throws as traceCamera does.
+  TraceStats traceCameraOnDevice(const gpu::CameraRays& camera);
   // The same rays from receivers already on the device: only the record, the lights and the pixel list go up.
   // occluded[k * lights + l] answers the k-th receiver taken (pixels[k], or pixel k) toward light l. Throws
   // vs::Error(BadInput) as traceVisibility does, and when the buffer is missing or a pixel is not below
