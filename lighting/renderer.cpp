@@ -1090,8 +1090,12 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
       }
   }
 
-  // The G-buffer the caller asked for is this frame's.
-  if (vulkan && options.readGBuffer) hostGBuffer();
+  // The G-buffer the caller asked for is this frame's (its read counted with the G-buffer stage).
+  if (vulkan && options.readGBuffer && !s.gbufferOnHost) {
+    const auto tr = Clock::now();
+    hostGBuffer();
+    timings.gbufferMs += msSince(tr);
+  }
   stats.bytesUploaded += tracer_.bytesUploaded() - uploadedBefore;
   frame.width = camera.width;
   frame.height = camera.height;

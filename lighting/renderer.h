@@ -37,16 +37,18 @@ struct RenderOptions {
   // read it back whatever readColor says. Neither changes what is traced or shaded.
   bool readColor = true;
   bool readShadowTerms = true;
-  // Whether a frame on the Vulkan backend copies its G-buffer to the host (RenderedFrame::gbuffer). Without it a
-  // frame that redoes every pixel (a moved camera) leaves the primary hits and the G-buffer on the device, and
-  // RenderedFrame::gbuffer is empty (FrameRenderer::deviceGBuffer() reads it back on demand); a later frame that
-  // redoes only some pixels reads the G-buffer back once, to find them. The CPU backend always fills it.
+  // Whether a frame on the Vulkan backend copies its G-buffer to the host (RenderedFrame::gbuffer). Without it
+  // RenderedFrame::gbuffer is empty (FrameRenderer::deviceGBuffer() reads it on demand), and a frame that redoes
+  // every pixel (a moved camera) leaves the primary hits and the G-buffer on the device; the first later frame
+  // that needs the host's copy (to find the pixels its changes touch, or asked for it) reads it back once. The
+  // CPU backend always fills it.
   bool readGBuffer = true;
   // A host engine's own G-buffer on the tracer's device (lighting/host_gbuffer.h; README "Embedding in an
   // engine"): the frame is lit, and its contact rays traced, from the host's surfaces instead of the library's
   // primary rays (none is traced). Every pixel is imported, traced toward the lights with rays and shaded again
   // each such frame (the host's G-buffer may differ anywhere); the layers are kept and traced as in any frame.
-  // RenderedFrame::gbuffer holds the imported texels (vsImportTexel), read back. Null: the library's own G-buffer.
+  // RenderedFrame::gbuffer holds the imported texels (vsImportTexel), read back unless readGBuffer is false.
+  // Null: the library's own G-buffer.
   // Vulkan only; the images must stay valid, in their stated layouts, until render() returns.
   const HostGBuffer* hostGBuffer = nullptr;
 };

@@ -577,7 +577,7 @@ TEST(FrameLoop, AStillFrameDoesNothingAndADigUploadsLittle) {
     CameraDesc camera = *game.scene.desc().camera;
     camera.position += glm::vec3(0.25f, 0.0f, 0.1f);
     game.scene.setCamera(camera);
-    const FrameStats& step = renderer.render(game.scene, options).stats;
+    const FrameStats step = renderer.render(game.scene, options).stats;  // a copy: later frames reuse the renderer's
     const std::uint64_t pixels = std::uint64_t(options.width) * std::uint64_t(options.height);
     EXPECT_EQ(step.primaryRays, pixels) << backend;
     EXPECT_LT(step.bytesUploaded, 4 * pixels) << backend;
@@ -593,6 +593,17 @@ TEST(FrameLoop, AStillFrameDoesNothingAndADigUploadsLittle) {
     if (backend == "vulkan") {
       EXPECT_TRUE(unread.gbuffer.texels.empty());
       EXPECT_LE(unread.stats.bytesReadBack, 4 * pixels * lights) << backend;
+    } else {
+      EXPECT_EQ(unread.gbuffer.texels.size(), pixels);
+    }
+    // The next two holes: the first reads the device's G-buffer back once (64 bytes a pixel) to find the pixels
+    // they touch, the second no more than its own pixels' data.
+    for (int h = 0; h < 2; ++h) {
+      game.scene.fillVoxels(game.ground, VoxelBox{{30 + 8 * h, 4, 30}, {34 + 8 * h, 8, 34}}, 0);
+      const FrameStats& hole = renderer.render(game.scene, game_).stats;
+      if (backend != "vulkan") continue;
+      if (h == 0) EXPECT_GE(hole.bytesReadBack, 64 * pixels) << backend << ": the G-buffer read back once";
+      else EXPECT_LT(hole.bytesReadBack, 64 * pixels) << backend << ": read back again";
     }
     std::printf("%s: a 4^3 hole's frame uploaded %llu bytes (%llu of them its scene update), a 16^3 block's at most "
                 "%llu, a camera step's %llu\n",
