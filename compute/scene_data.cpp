@@ -434,6 +434,13 @@ std::uint32_t SceneData::addObject(const Brickmap& brickmap, SceneDelta* delta) 
   return index;
 }
 
+int SceneData::boxHeadroom(const VoxelBox& box) {
+  const glm::i64vec3 side = glm::i64vec3(box.max) - glm::i64vec3(box.min);
+  const std::int64_t largest = std::max({side.x, side.y, side.z});
+  // Coordinates lie within +-2^30 (Brickmap::kMaxCoordinate), so half a side fits an int.
+  return int(std::max<std::int64_t>(kBoxHeadroomVoxels, largest / 2));
+}
+
 SceneDelta SceneData::updateObject(std::uint32_t object, std::span<const Brickmap* const> brickmaps,
                                    const EditResult& edit) {
   const std::string call = "updateObject(" + std::to_string(object) + ")";
@@ -510,9 +517,9 @@ SceneDelta SceneData::updateObject(std::uint32_t object, std::span<const Brickma
 
   // The object's box (which rays are clipped to) and with it its instances' world boxes (where rays are
   // re-based, vsInstanceBaseT) decide the last bits of every hit's t on the object. So the box does not follow
-  // each edit: it stays while the voxels fit in it (clears never shrink it), and a fill beyond it grows it by a
-  // step of headroom within the region table, so that an edit changes no texel away from itself except when
-  // the box grows (SceneData::BoxGrowth: then every ray through the instances changes).
+  // each edit: it stays while the voxels fit in it (clears never shrink it), and a fill beyond it grows it by
+  // boxHeadroom within the region table, so that an edit changes no texel away from itself except when the box
+  // grows (then every ray through the instances changes, and the renderer redoes all they cover).
   const gpu::ObjectRecord old = objects[object];
   {
     const VoxelBox was = voxelsOf(old), now = voxelsOf(rec);
@@ -521,9 +528,13 @@ SceneDelta SceneData::updateObject(std::uint32_t object, std::span<const Brickma
       if (!now.empty()) {
         const glm::ivec3 tableMin = glm::ivec3(rec.regionOrigin) * 128;
         const glm::ivec3 tableMax = tableMin + glm::ivec3(rec.regionDims) * 128;
+        const int headroom = boxHeadroom(VoxelBox{glm::min(was.min, now.min), glm::max(was.max, now.max)});
         for (int a = 0; a < 3; ++a) {
-          if (now.min[a] < box.min[a]) box.min[a] = std::max(tableMin[a], now.min[a] - kBoxHeadroomVoxels);
-          if (now.max[a] > box.max[a]) box.max[a] = std::min(tableMax[a], now.max[a] + kBoxHeadroomVoxels);
+          // In 64 bits: a coordinate near +-2^30 plus half a side would overflow an int before the clamp.
+          if (now.min[a] < box.min[a])
+            box.min[a] = int(std::max<std::int64_t>(tableMin[a], std::int64_t(now.min[a]) - headroom));
+          if (now.max[a] > box.max[a])
+            box.max[a] = int(std::min<std::int64_t>(tableMax[a], std::int64_t(now.max[a]) + headroom));
         }
       }
       rec.voxelMin = glm::ivec4(box.min, 0);

@@ -112,10 +112,15 @@ struct SceneData {
   // the arrays within 2^32 entries.
   SceneDelta updateObject(std::uint32_t object, std::span<const Brickmap* const> brickmaps, const EditResult& edit);
   // The object's box (ObjectRecord voxelMin/voxelMax) keeps its extent through edits while the voxels fit in
-  // it, and grows by this many voxels past a fill that leaves it (within the region table): the box decides
-  // the last bits of every t on the object, so an edit inside it changes no texel away from the edit. A grown
-  // box changes the object's instance records (SceneDelta::instances) and every ray through them.
+  // it, and grows past a fill that leaves it by boxHeadroom (within the region table): the box decides the last
+  // bits of every t on the object, so an edit inside it changes no texel away from the edit. A grown box
+  // changes the object's instance records (SceneDelta::instances) and every ray through them, so it grows in
+  // proportion to the object (as a vector's capacity does): a game that keeps building upward on its ground
+  // pays for a whole re-trace a logarithmic number of times, not once every few blocks.
   static constexpr int kBoxHeadroomVoxels = 16;
+  // The headroom of a box that has to grow: half its largest side, at least kBoxHeadroomVoxels.
+  // Precondition: box not empty.
+  static int boxHeadroom(const VoxelBox& box);
   // Appends an object (no instance places it yet); the other objects' bases do not move, so the delta lists
   // the appended ranges only. Returns its index. Precondition: the arrays stay within 2^32 entries.
   std::uint32_t addObject(const Brickmap& brickmap, SceneDelta* delta = nullptr);

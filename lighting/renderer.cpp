@@ -754,11 +754,17 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   // The host's copy brought up to date from the device's before host code reads it (a frame after one that
   // kept its G-buffer on the device alone); the pass holds it whole (no frame of another size came between,
   // which would have redone every pixel).
-  auto hostGBuffer = [&] {
-    if (s.gbufferOnHost) return;
+  // The host's copy sized for this frame (the lighting pass's checks read its size), its texels not yet
+  // read: stale until hostGBuffer() reads them.
+  auto leaveGBufferOnDevice = [&] {
     frame.gbuffer.width = camera.width;
     frame.gbuffer.height = camera.height;
     frame.gbuffer.texels.resize(pixelCount);
+    s.gbufferOnHost = false;
+  };
+  auto hostGBuffer = [&] {
+    if (s.gbufferOnHost) return;
+    leaveGBufferOnDevice();
     LightingTraffic traffic;
     lightingPass().readGBuffer(frame.gbuffer, &traffic);
     stats.bytesReadBack += traffic.readBack;
@@ -775,22 +781,15 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
     // for the caller and the host's own uses of the frame's G-buffer.
     LightingTraffic traffic;
     lightingPass().importGBuffer(*options.hostGBuffer, camera.width, camera.height, &traffic);
-    frame.gbuffer.width = camera.width;
-    frame.gbuffer.height = camera.height;
-    frame.gbuffer.texels.resize(pixelCount);
-    s.gbufferOnHost = false;
+    leaveGBufferOnDevice();
     if (!gbufferOnDeviceOnly) hostGBuffer();
     stats.bytesUploaded += traffic.uploaded;
     stats.bytesReadBack += traffic.readBack;
     stats.dispatches += traffic.dispatches;
   } else if (allPixels && gbufferOnDeviceOnly) {
-    // The host's copy is sized for the lighting pass's checks, and stale until read back.
     const TraceStats ts = vulkan->traceCameraOnDevice(cameraRecord);
     stats.dispatches += std::max(ts.dispatches, 1);
-    frame.gbuffer.width = camera.width;
-    frame.gbuffer.height = camera.height;
-    frame.gbuffer.texels.resize(pixelCount);
-    s.gbufferOnHost = false;
+    leaveGBufferOnDevice();
     stats.primaryRays = pixelCount;
   } else if (allPixels) {
     hits.resize(pixelCount);

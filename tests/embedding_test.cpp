@@ -482,6 +482,29 @@ TEST(Embedding, ADeviceLackingWhatTheLibraryNeedsIsRefusedNamingEachThing) {
 
 // A host engine's own compute pass (tests/shaders/host_shadows.comp) on its own device: its G-buffer in a buffer
 // of its own, voxshadow's shadow buffers bound after its own bindings, one shadow term per pixel and light.
+// The host engine's own Vulkan calls: a failure is the test's, not the library's.
+void checkHostCall(VkResult r, const char* call) {
+  if (r != VK_SUCCESS) throw std::runtime_error(std::string("the host engine's ") + call + " failed");
+}
+
+// Memory of the first type that `req` allows with every flag of `want`, on the host engine's device.
+VkDeviceMemory allocateHostMemory(const HostEngine& host, VkDevice device, const VkMemoryRequirements& req,
+                                  VkMemoryPropertyFlags want, const char* what) {
+  VkPhysicalDeviceMemoryProperties props{};
+  vkGetPhysicalDeviceMemoryProperties(host.physicalDevice(), &props);
+  std::uint32_t type = props.memoryTypeCount;
+  for (std::uint32_t t = 0; t < props.memoryTypeCount && type == props.memoryTypeCount; ++t)
+    if ((req.memoryTypeBits & (1u << t)) && (props.memoryTypes[t].propertyFlags & want) == want) type = t;
+  if (type == props.memoryTypeCount) throw std::runtime_error(std::string("the host engine found no memory for ") + what);
+  VkMemoryAllocateInfo mai{};
+  mai.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex = type;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  checkHostCall(vkAllocateMemory(device, &mai, nullptr, &memory), "vkAllocateMemory");
+  return memory;
+}
+
 class HostShadowPass {
  public:
   explicit HostShadowPass(const HostEngine& host) : host_(host), device_(host.device()) {
@@ -618,9 +641,7 @@ class HostShadowPass {
   }
 
  private:
-  static void check(VkResult r, const char* call) {
-    if (r != VK_SUCCESS) throw std::runtime_error(std::string("the host engine's ") + call + " failed");
-  }
+  static void check(VkResult r, const char* call) { checkHostCall(r, call); }
   std::pair<VkBuffer, VkDeviceMemory> hostBuffer(std::size_t bytes) {
     VkBufferCreateInfo bci{};
     bci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
@@ -630,19 +651,9 @@ class HostShadowPass {
     check(vkCreateBuffer(device_, &bci, nullptr, &buffer), "vkCreateBuffer");
     VkMemoryRequirements req{};
     vkGetBufferMemoryRequirements(device_, buffer, &req);
-    VkPhysicalDeviceMemoryProperties props{};
-    vkGetPhysicalDeviceMemoryProperties(host_.physicalDevice(), &props);
-    const VkMemoryPropertyFlags want = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-    std::uint32_t type = props.memoryTypeCount;
-    for (std::uint32_t t = 0; t < props.memoryTypeCount && type == props.memoryTypeCount; ++t)
-      if ((req.memoryTypeBits & (1u << t)) && (props.memoryTypes[t].propertyFlags & want) == want) type = t;
-    if (type == props.memoryTypeCount) throw std::runtime_error("the host engine found no host-visible memory");
-    VkMemoryAllocateInfo mai{};
-    mai.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    mai.allocationSize = req.size;
-    mai.memoryTypeIndex = type;
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    check(vkAllocateMemory(device_, &mai, nullptr, &memory), "vkAllocateMemory");
+    VkDeviceMemory memory = allocateHostMemory(
+        host_, device_, req, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+        "a host-visible buffer");
     check(vkBindBufferMemory(device_, buffer, memory, 0), "vkBindBufferMemory");
     buffers_.push_back({buffer, memory});
     return {buffer, memory};
@@ -840,23 +851,9 @@ class HostGBufferImages {
     VkDeviceMemory memory = VK_NULL_HANDLE;
     VkImageView view = VK_NULL_HANDLE;
   };
-  static void check(VkResult r, const char* call) {
-    if (r != VK_SUCCESS) throw std::runtime_error(std::string("the host engine's ") + call + " failed");
-  }
+  static void check(VkResult r, const char* call) { checkHostCall(r, call); }
   VkDeviceMemory allocate(const VkMemoryRequirements& req, VkMemoryPropertyFlags want) {
-    VkPhysicalDeviceMemoryProperties props{};
-    vkGetPhysicalDeviceMemoryProperties(host_.physicalDevice(), &props);
-    std::uint32_t type = props.memoryTypeCount;
-    for (std::uint32_t t = 0; t < props.memoryTypeCount && type == props.memoryTypeCount; ++t)
-      if ((req.memoryTypeBits & (1u << t)) && (props.memoryTypes[t].propertyFlags & want) == want) type = t;
-    if (type == props.memoryTypeCount) throw std::runtime_error("the host engine found no memory for its image");
-    VkMemoryAllocateInfo mai{};
-    mai.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    mai.allocationSize = req.size;
-    mai.memoryTypeIndex = type;
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    check(vkAllocateMemory(device_, &mai, nullptr, &memory), "vkAllocateMemory");
-    return memory;
+    return allocateHostMemory(host_, device_, req, want, "its image");
   }
 
   const HostEngine& host_;

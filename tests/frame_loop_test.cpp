@@ -528,6 +528,37 @@ TEST(FrameLoop, AMovedActorTracesOnlyItsFootprints) {
   }
 }
 
+// A game that builds upward on its ground: a fill that leaves the ground's box grows it by half its largest
+// side (SceneData::boxHeadroom), and a grown box re-bases every ray through the ground (the frame redoes what
+// the ground covers). A tower of 16^3 blocks grows it on the first block, not on every block as a fixed step of
+// 16 voxels did; every frame still equals a new renderer's.
+TEST(FrameLoop, ATowerOnTheGroundGrowsItsBoxOnce) {
+  Game game("frame_loop_tower", 5);
+  std::unique_ptr<Tracer> tracer = makeTracer("cpu"), fresh = makeTracer("cpu");
+  FrameRenderer renderer(*tracer);
+  const RenderOptions options = smallFrame();
+  renderer.render(game.scene, options);
+  const VoxelBox ground = game.scene.objects()[game.ground].brickmap.bounds();
+  const gpu::ObjectRecord& record = game.scene.data().objects[game.ground];
+  const int tableTop = (glm::ivec3(record.regionOrigin).y + glm::ivec3(record.regionDims).y) * 128;
+  const glm::ivec3 at(ground.min.x + 8, ground.max.y, ground.min.z + 8);
+  int grown = 0, blocks = 0;
+  for (int b = 0; at.y + 16 * (b + 1) <= tableTop && b < 5; ++b) {
+    const int boxTop = game.scene.data().objects[game.ground].voxelMax.y;
+    game.scene.fillVoxels(game.ground, VoxelBox{at + glm::ivec3(0, 16 * b, 0), at + glm::ivec3(16, 16 * (b + 1), 16)}, 2);
+    const bool grew = game.scene.data().objects[game.ground].voxelMax.y != boxTop;
+    const RenderedFrame& frame = renderer.render(game.scene, options);
+    grown += grew ? 1 : 0;
+    ++blocks;
+    // A block within the box redoes only what it shades, not the ground's every texel.
+    if (!grew) EXPECT_LT(frame.stats.texelsTraced, frame.stats.layerTexels / 10) << "block " << b;
+    const Differences d = compareWithFresh(game.scene, *fresh, renderer, frame, options);
+    EXPECT_FALSE(d.any()) << "block " << b << ": " << d.layers << " layers, " << d.color << " colour differ";
+  }
+  ASSERT_GE(blocks, 3) << "the ground's region table leaves room for three blocks above it";
+  EXPECT_EQ(grown, 1) << "of " << blocks << " blocks";
+}
+
 // A still frame does nothing; an edit's frame uploads little on Vulkan.
 TEST(FrameLoop, AStillFrameDoesNothingAndADigUploadsLittle) {
   for (const std::string backend : {"cpu", "vulkan"}) {
