@@ -751,9 +751,6 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
   std::vector<gpu::RayHit>& hits = s.hits;
   if (frame.gbuffer.texels.empty()) frame.gbuffer.texels.swap(s.keptTexels);
   if (!vulkan) s.gbufferOnHost = true;
-  // The host's copy brought up to date from the device's before host code reads it (a frame after one that
-  // kept its G-buffer on the device alone); the pass holds it whole (no frame of another size came between,
-  // which would have redone every pixel).
   // The host's copy sized for this frame (the lighting pass's checks read its size), its texels not yet
   // read: stale until hostGBuffer() reads them.
   auto leaveGBufferOnDevice = [&] {
@@ -762,6 +759,9 @@ const RenderedFrame& FrameRenderer::renderFrame(const Scene& scene, const Render
     frame.gbuffer.texels.resize(pixelCount);
     s.gbufferOnHost = false;
   };
+  // The host's copy brought up to date from the device's before host code reads it (a frame after one that
+  // kept its G-buffer on the device alone); the pass holds it whole (no frame of another size came between,
+  // which would have redone every pixel).
   auto hostGBuffer = [&] {
     if (s.gbufferOnHost) return;
     leaveGBufferOnDevice();

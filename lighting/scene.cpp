@@ -484,7 +484,7 @@ void Scene::editObject(std::size_t object, const char* call, const VoxelBox& box
     if (instanceActive(i) && instances_[i].object == object) {
       const Aabb b = worldBoxOf(instances_[i].brickToWorld, result.dirtyVoxels);
       if (!b.empty()) change.boxes.push_back(b);
-      // A fill beyond the object's box grew it (SceneData::kBoxHeadroomVoxels): every ray through the
+      // A fill beyond the object's box grew it (SceneData::boxHeadroom): every ray through the
       // instance is re-based anew.
       const Aabb& was = boxesBefore[i];
       const Aabb& now = data_->instanceBounds[i];

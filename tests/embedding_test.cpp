@@ -480,8 +480,6 @@ TEST(Embedding, ADeviceLackingWhatTheLibraryNeedsIsRefusedNamingEachThing) {
   EXPECT_TRUE(host.messages().empty()) << host.messages().front();
 }
 
-// A host engine's own compute pass (tests/shaders/host_shadows.comp) on its own device: its G-buffer in a buffer
-// of its own, voxshadow's shadow buffers bound after its own bindings, one shadow term per pixel and light.
 // The host engine's own Vulkan calls: a failure is the test's, not the library's.
 void checkHostCall(VkResult r, const char* call) {
   if (r != VK_SUCCESS) throw std::runtime_error(std::string("the host engine's ") + call + " failed");
@@ -505,6 +503,8 @@ VkDeviceMemory allocateHostMemory(const HostEngine& host, VkDevice device, const
   return memory;
 }
 
+// A host engine's own compute pass (tests/shaders/host_shadows.comp) on its own device: its G-buffer in a buffer
+// of its own, voxshadow's shadow buffers bound after its own bindings, one shadow term per pixel and light.
 class HostShadowPass {
  public:
   explicit HostShadowPass(const HostEngine& host) : host_(host), device_(host.device()) {

@@ -126,7 +126,7 @@ void expectConcatenation(const SceneData& s, const std::vector<const Brickmap*>&
   expectSlices(s.occupancy, &Brickmap::occupancyWords, 4, "occupancy");
   expectSlices(s.payload, &Brickmap::payloadWords, 5, "payload");
   ASSERT_EQ(s.objects.size(), fresh.objects.size()) << what;
-  // The kept voxel box may be larger than a fresh build's tight one (SceneData::kBoxHeadroomVoxels): it holds
+  // The kept voxel box may be larger than a fresh build's tight one (SceneData::boxHeadroom): it holds
   // every voxel and stays inside the object's region table; every other field is the fresh record's.
   for (std::size_t o = 0; o < s.objects.size(); ++o) {
     gpu::ObjectRecord kept = s.objects[o];
