@@ -62,9 +62,9 @@ struct HelperBinding {
 
 // The lighting pass's pipelines on one device, compiled once and shared by every VulkanLighting on it
 // (VulkanContext::shared): a renderer made for one frame, or a second renderer, compiles nothing again, where
-// one compile of the general shader takes a few hundred milliseconds on llvmpipe.
+// one compile of the general shader takes a few hundred milliseconds on llvmpipe. The context owns it and
+// destroys it before its device, so it holds the context by reference only.
 struct LightingPipelines {
-  std::shared_ptr<VulkanContext> owner;  // first member: the device outlives every object below
   VulkanContext& context;
   std::mutex mutex;  // guards the variants and the moment pipeline, made by whichever pass asks first
   // The general lighting shader's layouts, which serve its variants too, and the shader's pipeline.
@@ -100,7 +100,7 @@ struct LightingPipelines {
   // it does not grow without bound.
   static constexpr std::size_t kKeptVariants = 8;
 
-  explicit LightingPipelines(std::shared_ptr<VulkanContext> c) : owner(std::move(c)), context(*owner) {
+  explicit LightingPipelines(VulkanContext& c) : context(c) {
     VkDevice dev = context.device();
     std::array<VkDescriptorSetLayoutBinding, gpu::VS_LIGHTING_BINDING_COUNT> bindings{};
     for (std::uint32_t b = 0; b < gpu::VS_LIGHTING_BINDING_COUNT; ++b)
@@ -243,7 +243,7 @@ struct VulkanLighting::Impl {
 
   explicit Impl(std::shared_ptr<VulkanContext> c) : owner(std::move(c)), context(*owner) {
     pipelines = std::static_pointer_cast<LightingPipelines>(context.shared("lighting pipelines", [&] {
-      return std::static_pointer_cast<void>(std::make_shared<LightingPipelines>(owner));
+      return std::static_pointer_cast<void>(std::make_shared<LightingPipelines>(context));
     }));
     VkDevice dev = context.device();
     const std::array<VkDescriptorPoolSize, 2> sizes{{{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::VS_LIGHTING_BINDING_COUNT - 1},

@@ -597,6 +597,34 @@ TEST(CliRender, WritesPngAndExrAndRefusesBadOptions) {
 // (its variants run in the Evsm tests' frame loops), each debug mode and ray-traced shadows; a frame of more
 // lights than the variants specialise stays on the general shader; and the CPU pass agrees as in
 // VulkanMatchesTheCpuPass.
+// The device keeps the lighting pass's pipelines (VulkanContext::shared): a pass made for one frame and
+// dropped, as the CLI's and the tests' fresh renderers are, leaves them for the next, which compiles nothing.
+TEST(LightingBackends, APassMadeAfterTheLastOneWentCompilesNothing) {
+  VulkanOptions options;
+  options.validation = true;
+  std::unique_ptr<Tracer> vulkan = makeVulkanTracer(options);  // no device: fails here, loudly
+  std::unique_ptr<Tracer> cpu = makeCpuTracer();
+  const Scene scene = smallDemoScene("lighting_kept_pipelines");
+  cpu->setScene(scene.data());
+  FrameRenderer renderer(*cpu);
+  const RenderedFrame frame = renderer.render(scene, smallFrame());
+  const ShadeInputs inputs = makeShadeInputs(scene.desc(), frame.views, renderer.layers(), false);
+  const gpu::ShadePush push = makeShadePush(scene.desc(), frame.width, frame.height, gpu::VS_SHADE_LIT, false);
+  int compiled = 0;
+  {
+    VulkanLighting first(vulkan->vulkan()->sharedContext());
+    for (int i = 0; i <= VulkanLighting::kCallsBeforeSpecializing; ++i) first.shade(inputs, push, frame.gbuffer, {});
+    compiled = first.variantsCompiled();
+  }
+  ASSERT_EQ(compiled, 2) << "the general shader and the frame's variant";
+  VulkanLighting second(vulkan->vulkan()->sharedContext());
+  EXPECT_EQ(second.variantsCompiled(), compiled) << "the pipelines went with the last pass";
+  const ShadeOutput again = second.shade(inputs, push, frame.gbuffer, {});
+  EXPECT_EQ(second.variantsCompiled(), compiled);
+  EXPECT_EQ(again.color.size(), std::size_t(frame.width) * std::size_t(frame.height));
+  EXPECT_TRUE(vulkan->vulkan()->validationMessages().empty());
+}
+
 TEST(LightingBackends, ShaderVariantsShadeExactlyAsTheGeneralShader) {
   VulkanOptions options;
   options.validation = true;

@@ -225,25 +225,32 @@ TEST(VulkanContext, ValidationCapturesErrors) {
   EXPECT_NE(messages.front().find("error"), std::string::npos) << messages.front();
 }
 
-// Objects shared per device: one per key while anyone holds it, a new one once the last holder let it go.
-TEST(VulkanContext, SharedObjectsAreMadeOncePerKeyWhileHeld) {
-  vs::VulkanContext context;
-  int made = 0;
-  auto make = [&] {
-    ++made;
-    return std::static_pointer_cast<void>(std::make_shared<int>(made));
-  };
-  std::shared_ptr<void> a = context.shared("a", make);
-  std::shared_ptr<void> again = context.shared("a", make);
-  std::shared_ptr<void> b = context.shared("b", make);
-  EXPECT_EQ(made, 2);
-  EXPECT_EQ(a, again);
-  EXPECT_NE(a, b);
-  a.reset();
-  again.reset();
-  std::shared_ptr<void> fresh = context.shared("a", make);
-  EXPECT_EQ(made, 3);
-  EXPECT_EQ(*std::static_pointer_cast<int>(fresh), 3);
+// Objects shared per device: one per key, kept while the context lives (a renderer made for one frame finds
+// the pipelines the last one compiled), destroyed with the context.
+TEST(VulkanContext, SharedObjectsAreMadeOncePerKeyAndLiveWithTheContext) {
+  std::weak_ptr<void> watched;
+  {
+    vs::VulkanContext context;
+    int made = 0;
+    auto make = [&] {
+      ++made;
+      return std::static_pointer_cast<void>(std::make_shared<int>(made));
+    };
+    std::shared_ptr<void> a = context.shared("a", make);
+    std::shared_ptr<void> again = context.shared("a", make);
+    std::shared_ptr<void> b = context.shared("b", make);
+    EXPECT_EQ(made, 2);
+    EXPECT_EQ(a, again);
+    EXPECT_NE(a, b);
+    watched = a;
+    a.reset();
+    again.reset();
+    std::shared_ptr<void> kept = context.shared("a", make);
+    EXPECT_EQ(made, 2) << "no holder left, yet the context kept it";
+    EXPECT_EQ(*std::static_pointer_cast<int>(kept), 1);
+    EXPECT_FALSE(watched.expired());
+  }
+  EXPECT_TRUE(watched.expired()) << "the context destroys what it shares";
 }
 
 TEST(VulkanTracer, HandComputedHits) {

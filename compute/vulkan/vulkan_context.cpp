@@ -498,7 +498,16 @@ void VulkanContext::createPoolAndFence() {
   fence_ = vk::UniqueFence(fn_, deviceHandle_, fence);
 }
 
-VulkanContext::~VulkanContext() = default;
+VulkanContext::~VulkanContext() {
+  // The shared objects (pipelines) go first, while the device they were made on is still there; outside the
+  // lock, in case one of them asks the context for something as it goes.
+  std::map<std::string, std::shared_ptr<void>> objects;
+  {
+    std::lock_guard lock(sharedMutex_);
+    objects.swap(shared_);
+  }
+  objects.clear();
+}
 
 std::vector<std::string> VulkanContext::validationMessages() const {
   std::lock_guard lock(messagesMutex_);
@@ -558,13 +567,9 @@ vk::Buffer VulkanContext::createHostBuffer(VkDeviceSize size, VkBufferUsageFlags
 
 std::shared_ptr<void> VulkanContext::shared(const std::string& key, const std::function<std::shared_ptr<void>()>& make) {
   std::lock_guard lock(sharedMutex_);
-  std::weak_ptr<void>& slot = shared_[key];
-  std::shared_ptr<void> object = slot.lock();
-  if (!object) {
-    object = make();
-    slot = object;
-  }
-  return object;
+  std::shared_ptr<void>& slot = shared_[key];
+  if (!slot) slot = make();
+  return slot;
 }
 
 vk::UniqueBufferView VulkanContext::createTexelView(const vk::Buffer& buffer, VkFormat format) {

@@ -159,9 +159,12 @@ class VulkanContext {
                                            const VkSpecializationInfo* constants = nullptr,
                                            VkPipelineCache cache = VK_NULL_HANDLE);
 
-  // An object every user of this device shares (compiled pipelines), named by `key`: the one made by an
-  // earlier call while any caller still holds it, else a new one from `make`, whose type is the caller's.
-  // The context keeps no reference of its own, so the object may hold one to the context.
+  // An object every user of this device shares (compiled pipelines), named by `key`: the one an earlier call
+  // made, else a new one from `make`, whose type is the caller's. The context keeps it until the context itself
+  // is destroyed, and destroys it first, while the device is still there: a renderer made for one frame and
+  // dropped (the CLI's, a test's fresh renderer) finds the pipelines the last one compiled. The object must
+  // therefore hold no owning reference to the context (a cycle that would keep both alive); a plain reference
+  // is safe. `make` must not call shared() (the lock is held).
   std::shared_ptr<void> shared(const std::string& key, const std::function<std::shared_ptr<void>()>& make);
 
  private:
@@ -183,7 +186,7 @@ class VulkanContext {
   VkDevice deviceHandle_ = VK_NULL_HANDLE;
   bool validation_ = false;
   std::mutex sharedMutex_;
-  std::map<std::string, std::weak_ptr<void>> shared_;
+  std::map<std::string, std::shared_ptr<void>> shared_;
   mutable std::mutex messagesMutex_;
   std::vector<std::string> messages_;
   vk::UniqueInstance instance_;  // standalone only
