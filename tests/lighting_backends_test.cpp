@@ -592,13 +592,8 @@ TEST(CliRender, WritesPngAndExrAndRefusesBadOptions) {
   refused(test::quote(dir / "nocamera.json") + " -o " + test::quote(dir / "x.png") + " --backend cpu", "camera");
 }
 
-// The lighting shader's variants (lighting/lighting_variant.h): once a frame shape repeats, its specialised
-// pipeline shades it with exactly the bits of the general shader, for every light kind and filter but EVSM
-// (its variants run in the Evsm tests' frame loops), each debug mode and ray-traced shadows; a frame of more
-// lights than the variants specialise stays on the general shader; and the CPU pass agrees as in
-// VulkanMatchesTheCpuPass.
 // The device keeps the lighting pass's pipelines (VulkanContext::shared): a pass made for one frame and
-// dropped, as the CLI's and the tests' fresh renderers are, leaves them for the next, which compiles nothing.
+// dropped, as the frame-loop tests' fresh renderers are, leaves them for the next, which compiles nothing.
 TEST(LightingBackends, APassMadeAfterTheLastOneWentCompilesNothing) {
   VulkanOptions options;
   options.validation = true;
@@ -625,6 +620,11 @@ TEST(LightingBackends, APassMadeAfterTheLastOneWentCompilesNothing) {
   EXPECT_TRUE(vulkan->vulkan()->validationMessages().empty());
 }
 
+// The lighting shader's variants (lighting/lighting_variant.h): once a frame shape repeats, its specialised
+// pipeline shades it with exactly the bits of the general shader, for every light kind and filter but EVSM
+// (its variants run in the Evsm tests' frame loops), each debug mode and ray-traced shadows; a frame of more
+// lights than the variants specialise stays on the general shader; and the CPU pass agrees as in
+// VulkanMatchesTheCpuPass.
 TEST(LightingBackends, ShaderVariantsShadeExactlyAsTheGeneralShader) {
   VulkanOptions options;
   options.validation = true;
