@@ -163,9 +163,8 @@ class VulkanContext {
   // made, else a new one from `make`, whose type is the caller's. The context keeps it until the context itself
   // is destroyed, and destroys it first, while the device is still there: a renderer made for one frame on a
   // tracer that outlives it (a test's fresh renderer, a tool's renderer per view) finds the pipelines the last
-  // one compiled. The object must
-  // therefore hold no owning reference to the context (a cycle that would keep both alive); a plain reference
-  // is safe. `make` must not call shared() (the lock is held).
+  // one compiled. The object must therefore hold no owning reference to the context (a cycle that would keep
+  // both alive); a plain reference is safe. `make` must not call shared() (the lock is held).
   std::shared_ptr<void> shared(const std::string& key, const std::function<std::shared_ptr<void>()>& make);
 
  private:
