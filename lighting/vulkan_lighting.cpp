@@ -497,6 +497,7 @@ struct VulkanLighting::Impl {
       tablesHeld = true;
     }
     gpu::ResolvePush push{};
+    push.camera = trace.record;
     push.counts = glm::uvec4(std::uint32_t(trace.rays), std::uint32_t(tables.instances.size()), 0u, 0u);
     const std::array<VkBuffer, gpu::VS_RESOLVE_BINDING_COUNT> bound{
         trace.hits, trace.camera, resolveInstances.get(), resolvePalette.get(),

@@ -45,11 +45,10 @@ payloadChunks[VS_MAX_CHUNKS];
 layout(std430, set = 0, binding = VS_BINDING_RAYS) readonly buffer RayBuffer { TraceRay rays[]; };
 layout(std430, set = 0, binding = VS_BINDING_HITS) writeonly buffer HitBuffer { RayHit hits[]; };
 layout(std430, set = 0, binding = VS_BINDING_OCCLUDED) writeonly buffer OccludedBuffer { uint occluded[]; };
-// Camera dispatches: the frame's camera, then (size.z of them) the row-major pixels to trace.
-layout(std430, set = 0, binding = VS_BINDING_CAMERA) readonly buffer CameraBuffer {
-  CameraRays camera;
-  uint cameraPixels[];
-};
+// Camera dispatches: the row-major pixels to trace (the record's size.z of them; 0: every pixel). The record
+// itself comes through the view's uniform binding (CameraViewBlock), which llvmpipe loads once for all lanes
+// where it loaded a storage buffer's copy lane by lane for every ray.
+layout(std430, set = 0, binding = VS_BINDING_CAMERA) readonly buffer CameraBuffer { uint cameraPixels[]; };
 // Visibility dispatches: the record, then its counts.x lights and counts.y receivers, two vec4 each
 // (VisibilityLight, VisibilityReceiver); or, when the receivers are the device's (counts.z = 1), the lights and
 // then, where counts.w = 1, the receivers' pixels, read through a second view of the same buffer.
@@ -69,6 +68,9 @@ layout(set = 0, binding = VS_BINDING_NODE_ESCAPES) uniform usamplerBuffer nodeEs
 // The layer's view, bound at a dynamic offset per dispatch. Every TraceView member is 16-byte aligned, so its
 // std140 layout is its std430 one.
 layout(std140, set = 0, binding = VS_BINDING_VIEW) uniform ViewBlock { TraceView currentView; };
+// The same binding in camera dispatches: the frame's camera record (every CameraRays member is a 16-byte vector,
+// so std140 is its std430 layout), at the start of the view's range.
+layout(std140, set = 0, binding = VS_BINDING_VIEW) uniform CameraViewBlock { CameraRays cameraView; };
 layout(set = 0, binding = VS_BINDING_SHADOW_IMAGE, r32f) uniform writeonly image2DArray shadowImage;
 // The box table (traverse.h, vsObjectWalkBoxes): one first-code index per object, the codes, then the
 // occupancy words the codes of partial bricks point to, so that a step reads this one texel buffer.
@@ -166,8 +168,8 @@ void main() {
   uint index = push.rayOffset + gl_WorkGroupID.x * VS_RAYS_PER_GROUP + gl_LocalInvocationIndex;
   if (index >= push.rayCount) return;
   if (VS_RAY_KIND == VS_RAY_CAMERA) {
-    uint pixel = camera.size.z == 0u ? index : cameraPixels[index];
-    hits[index] = vsClosestHit(vsTraceRayToWorld(vsCameraRay(camera, pixel)));
+    uint pixel = cameraView.size.z == 0u ? index : cameraPixels[index];
+    hits[index] = vsClosestHit(vsTraceRayToWorld(vsCameraRay(cameraView, pixel)));
     return;
   }
   if (VS_RAY_KIND == VS_RAY_VISIBILITY) {

@@ -37,7 +37,7 @@ const uint VS_BINDING_NODE_ESCAPES = 13u;     // R32UI texel buffer
 const uint VS_BINDING_RAYS = 14u;             // storage buffer of TraceRay (closest- and any-hit dispatches)
 const uint VS_BINDING_HITS = 15u;             // storage buffer of RayHit (closest-hit dispatches)
 const uint VS_BINDING_OCCLUDED = 16u;         // storage buffer of uint (any-hit dispatches)
-const uint VS_BINDING_CAMERA = 17u;           // storage buffer: a CameraRays record, then the listed pixels
+const uint VS_BINDING_CAMERA = 17u;           // storage buffer: the listed pixels (the record: VS_BINDING_VIEW)
 const uint VS_BINDING_VISIBILITY = 18u;       // storage buffer: a VisibilityRays record, its lights, its receivers
                                               // or listed pixels
 // storage buffer of VisibilityReceiver, one per pixel, made on the device (visibility dispatches whose record's

@@ -180,6 +180,7 @@ struct VulkanTracer::Impl {
   std::uint64_t cameraTraceRays = 0;  // the rays of the camera trace whose results hitBuffer holds (lastCameraTrace)
   std::uint64_t cameraTracePixels = 0;
   bool cameraTraceListed = false;
+  gpu::CameraRays cameraTraceRecord{};
   VisibilityTraceBuffers visibilityTrace;  // the last trace from DeviceReceivers (lastVisibilityTrace)
   VkBuffer deviceReceivers = VK_NULL_HANDLE;  // bound at VS_BINDING_RECEIVERS for the call under way (else the placeholder)
 
@@ -1030,12 +1031,9 @@ struct VulkanTracer::Impl {
       }
     };
     if (kind == gpu::RayKind::Camera) {
-      const VkDeviceSize cameraBytes = sizeof(gpu::CameraRays) + std::max<VkDeviceSize>(pixels.size_bytes(), 4);
-      ensure(cameraBuffer, cameraBytes);
-      std::memcpy(cameraBuffer.mapped, camera, sizeof(gpu::CameraRays));
-      if (!pixels.empty())
-        std::memcpy(static_cast<char*>(cameraBuffer.mapped) + sizeof(gpu::CameraRays), pixels.data(),
-                    pixels.size_bytes());
+      // The listed pixels; the record goes to the view's uniform binding below.
+      ensure(cameraBuffer, std::max<VkDeviceSize>(pixels.size_bytes(), 4));
+      if (!pixels.empty()) std::memcpy(cameraBuffer.mapped, pixels.data(), pixels.size_bytes());
     } else if (kind == gpu::RayKind::Visibility) {
       ensure(visibilityBuffer, sourceBytes);
       writeSource(static_cast<std::byte*>(visibilityBuffer.mapped));
@@ -1053,6 +1051,9 @@ struct VulkanTracer::Impl {
       viewBuffer = context.createHostBuffer(viewStride, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
       std::memset(viewBuffer.mapped, 0, viewStride);
     }
+    // A camera dispatch reads its record through the view's uniform binding (the shader's CameraViewBlock): from
+    // a storage buffer, llvmpipe loaded it lane by lane for every ray. Layer traces write their own views.
+    if (kind == gpu::RayKind::Camera) std::memcpy(viewBuffer.mapped, camera, sizeof(gpu::CameraRays));
     writeDescriptors();
 
     const std::uint64_t groups = (rayCount + gpu::VS_RAYS_PER_GROUP - 1) / gpu::VS_RAYS_PER_GROUP;
@@ -1187,6 +1188,7 @@ TraceStats VulkanTracer::traceCamera(const gpu::CameraRays& camera, std::span<co
   impl_->cameraTraceRays = count;
   impl_->cameraTracePixels = std::uint64_t(camera.size.x) * std::uint64_t(camera.size.y);
   impl_->cameraTraceListed = !pixels.empty();
+  impl_->cameraTraceRecord = record;
   return stats;
 }
 TraceStats VulkanTracer::traceCameraOnDevice(const gpu::CameraRays& camera) {
@@ -1201,6 +1203,7 @@ TraceStats VulkanTracer::traceCameraOnDevice(const gpu::CameraRays& camera) {
   impl_->cameraTraceRays = count;
   impl_->cameraTracePixels = count;
   impl_->cameraTraceListed = false;
+  impl_->cameraTraceRecord = record;
   return stats;
 }
 
@@ -1253,7 +1256,7 @@ VisibilityTraceBuffers VulkanTracer::lastVisibilityTrace() const { return impl_-
 CameraTraceBuffers VulkanTracer::lastCameraTrace() const {
   if (impl_->cameraTraceRays == 0) return {};
   return {impl_->hitBuffer.get(), impl_->cameraBuffer.get(), impl_->cameraTraceRays, impl_->cameraTracePixels,
-          impl_->cameraTraceListed};
+          impl_->cameraTraceListed, impl_->cameraTraceRecord};
 }
 TraceStats VulkanTracer::traceVisibility(const gpu::VisibilityRays& frame, std::span<const gpu::VisibilityLight> lights,
                                          std::span<const gpu::VisibilityReceiver> receivers,

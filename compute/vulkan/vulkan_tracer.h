@@ -93,14 +93,15 @@ struct DeviceTexelTarget {
 };
 
 // The device buffers a camera trace left its results in (VulkanTracer::lastCameraTrace): the hit records, one
-// per ray in call order, and the camera buffer (the CameraRays record, then its listed pixels), as
-// compute/shaders/shadow_trace.comp binds them (storage buffers).
+// per ray in call order, and the camera buffer (its listed pixels), as compute/shaders/shadow_trace.comp binds
+// them (storage buffers), with the record the rays were made from.
 struct CameraTraceBuffers {
   VkBuffer hits = VK_NULL_HANDLE;
   VkBuffer camera = VK_NULL_HANDLE;
   std::uint64_t rays = 0;  // 0: no camera trace's results are held
   std::uint64_t pixels = 0;  // the camera's pixels (width x height)
   bool listed = false;       // the rays are the listed pixels' (else every pixel's, in order)
+  gpu::CameraRays record{};  // as traced; size.z: the listed pixels in `camera` (0: every pixel)
 };
 
 // Visibility receivers that a pass on the tracer's device made, one VisibilityReceiver per pixel in a storage

@@ -48,11 +48,11 @@ const uint VS_LIGHTING_SPEC_FIRST_LIGHT = 3u;  // light k: kind at 3 + 3k, filte
 const uint VS_LIGHTING_SPEC_COUNT = 3u + 3u * VS_LIGHTING_SPECIALIZED_LIGHTS;
 
 // The G-buffer resolve (lighting/shaders/gbuffer_resolve.comp), its own descriptor set: a camera trace's hits and
-// camera buffer as the tracer left them on the device (compute/shaders/shadow_trace.comp's VS_BINDING_HITS and
+// listed pixels as the tracer left them on the device (compute/shaders/shadow_trace.comp's VS_BINDING_HITS and
 // VS_BINDING_CAMERA), the instances' records, the palette, and the lighting pass's G-buffer and the visibility
 // rays' receivers (which a visibility trace reads in place: DeviceReceivers), written in place.
 const uint VS_RESOLVE_BINDING_HITS = 0u;       // RayHit per traced ray
-const uint VS_RESOLVE_BINDING_CAMERA = 1u;     // CameraRays, then the listed pixels (size.z of them; 0: every pixel)
+const uint VS_RESOLVE_BINDING_CAMERA = 1u;     // the listed pixels (ResolvePush.camera.size.z of them; 0: every pixel)
 const uint VS_RESOLVE_BINDING_INSTANCES = 2u;  // GBufferInstance per instance
 const uint VS_RESOLVE_BINDING_PALETTE = 3u;    // vec4 per colour
 const uint VS_RESOLVE_BINDING_GBUFFER = 4u;    // GBufferTexel per pixel (written)

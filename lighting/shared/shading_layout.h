@@ -4,6 +4,7 @@
 #ifndef VOXSHADOW_SHADING_LAYOUT_H
 #define VOXSHADOW_SHADING_LAYOUT_H
 
+#include "compute/shared/trace_rays.h"
 #include "voxel/portable.h"
 
 VS_NAMESPACE_BEGIN
@@ -68,9 +69,13 @@ struct SpreadPush {
                  // receivers' pixel list in the trace's source buffer (0: receiver k is pixel k)
 };
 
-// The device resolve's push block (lighting/shaders/gbuffer_resolve.comp).
+// The device resolve's push block (lighting/shaders/gbuffer_resolve.comp). The camera record comes here rather
+// than from the trace's buffer: llvmpipe loads a storage buffer's members lane by lane even at an offset that
+// every invocation shares, and those loads were half of the resolve's time; a push constant is one scalar load.
+// 128 bytes, the size every Vulkan device allows.
 struct ResolvePush {
-  uvec4 counts;  // x: hits to resolve; y: instance records; zw: 0
+  CameraRays camera;  // the trace's record (VulkanTracer::lastCameraTrace)
+  uvec4 counts;       // x: hits to resolve; y: instance records; zw: 0
 };
 
 // A host engine's G-buffer as the import pass reads it (lighting/shared/gbuffer_import.h,
@@ -183,7 +188,8 @@ VS_OFFSET_CHECK(GBufferTexel, albedo, 32);
 VS_OFFSET_CHECK(GBufferTexel, info, 48);
 VS_LAYOUT_CHECK(GBufferInstance, 112);
 VS_OFFSET_CHECK(GBufferInstance, palette, 96);
-VS_LAYOUT_CHECK(ResolvePush, 16);
+VS_LAYOUT_CHECK(ResolvePush, 112);
+VS_OFFSET_CHECK(ResolvePush, counts, 96);
 VS_LAYOUT_CHECK(HostGBufferRecord, 192);
 VS_OFFSET_CHECK(HostGBufferRecord, viewToWorld, 64);
 VS_OFFSET_CHECK(HostGBufferRecord, eyeHigh, 128);
